@@ -1,0 +1,1 @@
+"""One module per ``bayes-emt`` sub-command (discovered by :mod:`bayes_emt.cli`)."""

@@ -1,0 +1,137 @@
+"""The measurement record: frequencies, complex admittance, optional weights, metadata."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from .errors import DataFormatError
+
+__all__ = ["Measurement", "validate_arrays"]
+
+
+def validate_arrays(omega, Y, *, source: str = "<array>", weights=None, sort: bool = True):
+    """Check and normalise measurement arrays; raise :class:`DataFormatError` naming ``source``.
+
+    Rules: 1-D, same length, finite, ``omega > 0``, ``Y != 0``, no duplicate frequencies;
+    unsorted input is sorted with a notice (a ``UserWarning``) when ``sort`` is true.
+    Returns ``(omega, Y, weights)`` as new arrays.
+    """
+    omega = np.asarray(omega, dtype=float)
+    Y = np.asarray(Y, dtype=complex)
+    if omega.ndim != 1 or Y.ndim != 1:
+        raise DataFormatError(f"{source}: frequencies and admittance must be 1-D arrays")
+    if omega.size != Y.size:
+        raise DataFormatError(f"{source}: {omega.size} frequencies but {Y.size} admittance values")
+    if omega.size == 0:
+        raise DataFormatError(f"{source}: no data points")
+    bad = ~np.isfinite(omega)
+    if bad.any():
+        raise DataFormatError(f"{source}: non-finite frequency at point {int(np.argmax(bad)) + 1}")
+    bad = ~np.isfinite(Y)
+    if bad.any():
+        raise DataFormatError(f"{source}: non-finite value at point {int(np.argmax(bad)) + 1}")
+    bad = omega <= 0
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise DataFormatError(f"{source}: non-positive frequency {omega[i]:g} at point {i + 1}")
+    bad = Y == 0
+    if bad.any():
+        raise DataFormatError(f"{source}: zero admittance/impedance at point {int(np.argmax(bad)) + 1}")
+    if weights is not None:
+        weights = np.asarray(weights, dtype=float)
+        if weights.shape != omega.shape or not np.all(np.isfinite(weights)) or np.any(weights <= 0):
+            raise DataFormatError(f"{source}: weights must be positive, finite, one per point")
+    order = np.argsort(omega, kind="stable")
+    if np.any(np.diff(omega[order]) == 0):
+        i = int(np.argmax(np.diff(omega[order]) == 0))
+        raise DataFormatError(f"{source}: duplicate frequency {omega[order][i]:g} rad/s")
+    if np.any(order != np.arange(omega.size)):
+        if not sort:
+            raise DataFormatError(f"{source}: frequencies are not in increasing order")
+        warnings.warn(f"{source}: frequencies were not in increasing order; sorted them",
+                      UserWarning, stacklevel=2)
+        omega, Y = omega[order], Y[order]
+        weights = None if weights is None else weights[order]
+    return omega.copy(), Y.copy(), None if weights is None else weights.copy()
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """A measured (or simulated) admittance.
+
+    Attributes
+    ----------
+    omega : (F,) angular frequencies [rad/s], strictly increasing.
+    Y : (F,) complex admittance [S].
+    weights : (F,) optional positive per-point weights (relative confidence), or None.
+    meta : read-only metadata (source file, original units, simulation truth, ...).
+    """
+
+    omega: np.ndarray
+    Y: np.ndarray
+    weights: np.ndarray | None = None
+    meta: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
+
+    def __post_init__(self):
+        src = str(dict(self.meta).get("source", "<array>"))
+        omega, Y, w = validate_arrays(self.omega, self.Y, source=src, weights=self.weights)
+        for a in (omega, Y) + (() if w is None else (w,)):
+            a.setflags(write=False)
+        object.__setattr__(self, "omega", omega)
+        object.__setattr__(self, "Y", Y)
+        object.__setattr__(self, "weights", w)
+        object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
+
+    @classmethod
+    def from_impedance(cls, omega, Z, **kwargs) -> Measurement:
+        return cls(np.asarray(omega, float), 1.0 / np.asarray(Z, complex), **kwargs)
+
+    @classmethod
+    def from_hz(cls, f_hz, Y, **kwargs) -> Measurement:
+        return cls(2 * math.pi * np.asarray(f_hz, float), Y, **kwargs)
+
+    @property
+    def n_points(self) -> int:
+        return int(self.omega.size)
+
+    @property
+    def f_hz(self) -> np.ndarray:
+        """Frequencies [Hz]."""
+        return self.omega / (2 * math.pi)
+
+    @property
+    def Z(self) -> np.ndarray:
+        """Impedance [ohm]."""
+        return 1.0 / self.Y
+
+    @property
+    def source(self) -> str:
+        return str(self.meta.get("source", "<array>"))
+
+    def select(self, omega_min: float | None = None, omega_max: float | None = None) -> Measurement:
+        """The points with ``omega_min <= omega <= omega_max`` (rad/s)."""
+        keep = np.ones(self.n_points, bool)
+        if omega_min is not None:
+            keep &= self.omega >= omega_min
+        if omega_max is not None:
+            keep &= self.omega <= omega_max
+        if not keep.any():
+            raise DataFormatError(
+                f"{self.source}: no points between {omega_min} and {omega_max} rad/s "
+                f"(data span {self.omega[0]:g}-{self.omega[-1]:g} rad/s)")
+        w = None if self.weights is None else self.weights[keep]
+        return replace(self, omega=self.omega[keep], Y=self.Y[keep], weights=w)
+
+    def with_meta(self, **meta: Any) -> Measurement:
+        return replace(self, meta=MappingProxyType({**self.meta, **meta}))
+
+    def meta_json(self) -> str:
+        """Metadata as JSON text (non-serialisable values are stringified)."""
+        return json.dumps(dict(self.meta), default=str, sort_keys=True)
