@@ -113,13 +113,24 @@ def ring_ladder_modes(Pg, P, R, n_turns):
     idx = np.minimum.outer(np.arange(n), np.arange(n))
     A = cum[..., idx]
     b = cum  # (D P U)_i = sum_{l<=i} P_l
-    rinv = 1.0 / np.sqrt(R)
-    M = A * rinv[..., :, None] * rinv[..., None, :]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        rinv = 1.0 / np.sqrt(R)
+        M = A * rinv[..., :, None] * rinv[..., None, :]
+    # a non-physical parameter set (non-finite, R <= 0) yields NaN, never an exception, so an
+    # optimiser or sampler that strays there just sees a bad point
+    bad = ~np.all(np.isfinite(M), axis=(-2, -1)) | np.any(R <= 0, axis=-1) | np.any(P < 0, axis=-1)
+    if np.any(bad):
+        M = np.where(bad[..., None, None], np.eye(n), M)
+        rinv = np.where(bad[..., None], 1.0, rinv)
     lam, Q = np.linalg.eigh(M)
     c = np.einsum("...ij,...i->...j", Q, b * rinv)
     lam = np.maximum(lam, np.finfo(float).tiny)
     N2 = float(n_turns) ** 2
-    return N2 * np.asarray(Pg, float), N2 * c * c / lam, lam
+    Lk = N2 * c * c / lam
+    if np.any(bad):
+        Lk = np.where(bad[..., None], np.nan, Lk)
+        lam = np.where(bad[..., None], np.nan, lam)
+    return N2 * np.asarray(Pg, float), Lk, lam
 
 
 def ring_ladder(s, Pg, P, R, n_turns):
