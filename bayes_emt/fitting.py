@@ -32,7 +32,8 @@ from .models import Model, build_model
 from .models.terms import uniform_rings
 from .results import FitResult
 
-__all__ = ["fit_admittance", "covariance_z", "relative_residuals"]
+__all__ = ["fit_admittance", "covariance_z", "relative_residuals", "central_jacobian",
+           "batched_least_squares"]
 
 _FD_STEP = 1e-6  # central-difference step in sampling space (relative for log parameters)
 
@@ -42,8 +43,36 @@ def relative_residuals(model: Model, meas: Measurement, theta) -> np.ndarray:
     return (model.admittance(meas.omega, theta) - meas.Y) / np.abs(meas.Y)
 
 
+def central_jacobian(fun_batch, z, step: float = _FD_STEP):
+    """Jacobian ``(m, k)`` of a batched residual ``fun_batch((B, k)) -> (B, m)`` at ``z`` by
+    central differences, all ``2k`` perturbed points in one call."""
+    k = z.size
+    h = step * np.maximum(1.0, np.abs(z))
+    stack = np.repeat(z[None, :], 2 * k, axis=0)
+    idx = np.arange(k)
+    stack[idx, idx] += h
+    stack[k + idx, idx] -= h
+    r = fun_batch(stack)
+    J = (r[:k] - r[k:]) / (2 * h[:, None])
+    return np.where(np.isfinite(J), J, 0.0).T
+
+
+def batched_least_squares(fun_batch, z0, lo, hi, *, max_nfev: int, tol: float = 1e-14):
+    """``scipy.optimize.least_squares`` (trust-region reflective, bounded) of a batched residual;
+    non-finite residuals are replaced by a large value so the optimiser backs off."""
+
+    def fun(z):
+        r = fun_batch(z[None, :])[0]
+        return np.where(np.isfinite(r), r, 1e10)
+
+    z0 = np.clip(z0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+    return optimize.least_squares(fun, z0, jac=lambda z: central_jacobian(fun_batch, z), bounds=(lo, hi),
+                                  method="trf", x_scale="jac", ftol=tol, xtol=tol, gtol=tol,
+                                  max_nfev=max_nfev)
+
+
 class _Problem:
-    """Weighted residuals and their Jacobian over a subset of free parameters (sampling space)."""
+    """Weighted residuals over a subset of free parameters (sampling space), batched."""
 
     def __init__(self, model: Model, meas: Measurement, weight: np.ndarray, free: np.ndarray, z_full):
         self.model, self.meas = model, meas
@@ -51,37 +80,21 @@ class _Problem:
         self.free = free
         self.z_full = np.array(z_full, float)
 
-    def _theta(self, zf):
+    def batch(self, zf):
         z = np.broadcast_to(self.z_full, zf.shape[:-1] + self.z_full.shape).copy()
         z[..., self.free] = zf
-        return self.model.params.from_z(z)
-
-    def _res(self, Ym):
-        d = (Ym - self.meas.Y) * self.w
+        with np.errstate(all="ignore"):
+            d = (self.model.admittance(self.meas.omega, self.model.params.from_z(z)) - self.meas.Y) * self.w
         return np.concatenate([d.real, d.imag], axis=-1)
 
     def residuals(self, zf):
-        with np.errstate(all="ignore"):
-            r = self._res(self.model.admittance(self.meas.omega, self._theta(zf)))
-        return np.where(np.isfinite(r), r, 1e10)
+        return self.batch(zf[None, :])[0]
 
     def jacobian(self, zf):
-        k = zf.size
-        h = _FD_STEP * np.maximum(1.0, np.abs(zf))
-        stack = np.repeat(zf[None, :], 2 * k, axis=0)
-        idx = np.arange(k)
-        stack[idx, idx] += h
-        stack[k + idx, idx] -= h
-        with np.errstate(all="ignore"):
-            r = self._res(self.model.admittance(self.meas.omega, self._theta(stack)))
-        J = (r[:k] - r[k:]) / (2 * h[:, None])
-        return np.where(np.isfinite(J), J, 0.0).T
+        return central_jacobian(self.batch, zf)
 
     def solve(self, zf0, lo, hi, max_nfev, tol=1e-14):
-        zf0 = np.clip(zf0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
-        return optimize.least_squares(self.residuals, zf0, jac=self.jacobian, bounds=(lo, hi),
-                                      method="trf", x_scale="jac", ftol=tol, xtol=tol,
-                                      gtol=tol, max_nfev=max_nfev)
+        return batched_least_squares(self.batch, zf0, lo, hi, max_nfev=max_nfev, tol=tol)
 
 
 def covariance_z(J: np.ndarray, r: np.ndarray, n_params: int) -> np.ndarray | None:
@@ -117,7 +130,8 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     initial : optional start (dict or vector of physical values); default: automatic.
     omega_range : optional (omega_min, omega_max) [rad/s] to restrict the data.
     polish : run step 3 (relative residuals, all parameters) after the paper's two steps.
-    max_nfev : evaluation budget per step (default 100 per parameter).
+    max_nfev : evaluation budget of the final polish (default 25 per parameter; the intermediate
+        steps get at most 30 per parameter). A polish that runs out reports ``success=False``.
 
     Returns
     -------
@@ -147,7 +161,7 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         theta0 = _as_theta(model, initial)
         info["initial"] = {"path": "user"}
     k = model.ndim
-    max_nfev = max_nfev or 100 * k
+    max_nfev = max_nfev or 25 * k
     lo, hi = model.params.bounds_z()
     z = model.params.to_z(theta0)
     s = 1j * meas.omega
