@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from dataclasses import dataclass, field
 from importlib import metadata
 
@@ -137,14 +138,17 @@ class Posterior:
                  "ess": json.dumps(dict(zip(self.names, map(float, self.ess), strict=True))),
                  "source": meas.source, "versions": json.dumps(_versions()),
                  "inference_library": "emcee"}
-        dt = az.from_dict(
-            {"posterior": post,
-             "log_likelihood": {"Y": ll},
-             "sample_stats": {"lp": self.log_prob},
-             "observed_data": {"Y_real": meas.Y.real, "Y_imag": meas.Y.imag},
-             "constant_data": {"omega_rad_s": meas.omega}},
-            dims={"Y": ["omega"], "Y_real": ["omega"], "Y_imag": ["omega"], "omega_rad_s": ["omega"]},
-            coords={"omega": meas.omega})
+        with warnings.catch_warnings():
+            # an ensemble has more walkers (chains) than kept draws per walker: expected here
+            warnings.filterwarnings("ignore", message="Found chain dimension to be longer")
+            dt = az.from_dict(
+                {"posterior": post,
+                 "log_likelihood": {"Y": ll},
+                 "sample_stats": {"lp": self.log_prob},
+                 "observed_data": {"Y_real": meas.Y.real, "Y_imag": meas.Y.imag},
+                 "constant_data": {"omega_rad_s": meas.omega}},
+                dims={"Y": ["omega"], "Y_real": ["omega"], "Y_imag": ["omega"], "omega_rad_s": ["omega"]},
+                coords={"omega": meas.omega})
         dt.attrs.update(attrs)
         return dt
 
