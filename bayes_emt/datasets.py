@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from .data import Measurement
 
-__all__ = ["paper_bench_path", "load_paper_bench", "PAPER_BENCH_SEED", "PAPER_BENCH_NOISE"]
+__all__ = ["paper_bench_path", "load_paper_bench", "PAPER_BENCH_SEED", "PAPER_BENCH_NOISE",
+           "REALDATA_FILES", "load_realdata"]
 
 PAPER_BENCH_SEED = 20261122
 PAPER_BENCH_NOISE = 0.002
@@ -21,3 +23,28 @@ def load_paper_bench() -> Measurement:
     from .io import read_measurement
 
     return read_measurement(paper_bench_path())
+
+
+#: The real loudspeaker recordings of ``../shared/realdata`` (never copied into this repository):
+#: file -> (reader options, useful band in Hz or None), as that folder's README describes them:
+#: the LS10-44 .zma is unreliable below 10 Hz and at its last point; the run2 .txt files state no
+#: frequency unit (Hz) and are very noisy above 1 kHz.
+REALDATA_FILES: dict[str, tuple[dict, tuple[float, float] | None]] = {
+    "dayton_LS10-44.zma": ({}, (10.0, 20000.0)),
+    "dayton_LS10-44_freeair_run2.txt": ({"freq_unit": "hz"}, (10.0, 1000.0)),
+    "dayton_LS10-44_added100g_run2.txt": ({"freq_unit": "hz"}, (10.0, 1000.0)),
+    "seas_E0018_freeair.zma": ({}, None),
+    "koan_mid_sealed.zma": ({}, None),
+    "koan_tweeter.zma": ({}, None),
+}
+
+
+def load_realdata(folder: str | Path, name: str) -> Measurement:
+    """One of :data:`REALDATA_FILES` from ``folder``, restricted to its useful band."""
+    from .io import read_measurement
+
+    opts, band = REALDATA_FILES[name]
+    meas = read_measurement(Path(folder) / name, **opts)
+    if band is not None:
+        meas = meas.select(2 * math.pi * band[0], 2 * math.pi * band[1])
+    return meas
