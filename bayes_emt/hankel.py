@@ -20,8 +20,8 @@ from scipy import linalg
 
 from .data import Measurement
 from .models import Model, build_model
+from .models.rational import foster_form
 from .results import FitResult
-from .shunt.stability import foster_form
 
 __all__ = ["hankel_singular_values", "choose_rings", "select_rings", "RingChoice", "blocked_state_space"]
 

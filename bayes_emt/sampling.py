@@ -20,6 +20,7 @@ killed and resumed, it ends with the same chain as an uninterrupted run.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import sys
@@ -88,7 +89,7 @@ def _meta(lik: Likelihood, seed: int, nwalkers: int) -> dict:
     return {"model": lik.model.label, "names": list(lik.params.names), "likelihood": lik.kind,
             "nu": lik.nu, "seed": int(seed), "nwalkers": int(nwalkers), "source": lik.meas.source,
             "n_points": lik.meas.n_points,
-            "data_checksum": float(np.sum(np.abs(lik.meas.Y)) + np.sum(lik.meas.omega) * 1e-9)}
+            "data_sha256": hashlib.sha256(lik.meas.omega.tobytes() + lik.meas.Y.tobytes()).hexdigest()}
 
 
 def _check_resume(path: Path, meta: dict) -> None:
@@ -98,7 +99,7 @@ def _check_resume(path: Path, meta: dict) -> None:
         if stored.get(key) != meta[key]:
             raise ValueError(f"{path}: cannot resume: the checkpoint has {key} = {stored.get(key)!r}, "
                              f"this run {meta[key]!r}")
-    if not math.isclose(stored.get("data_checksum", 0.0), meta["data_checksum"], rel_tol=1e-12):
+    if stored.get("data_sha256") != meta["data_sha256"]:
         raise ValueError(f"{path}: cannot resume: the checkpoint was made with different data")
 
 

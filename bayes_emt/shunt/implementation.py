@@ -28,8 +28,9 @@ import numpy as np
 from scipy import signal
 
 from ..models import Model, build_model
+from ..models.rational import foster_form
 from .receptance import Plant
-from .stability import foster_form, is_rational
+from .stability import is_rational
 
 __all__ = ["Realisation", "controller_tf", "realise_rc_shunt"]
 

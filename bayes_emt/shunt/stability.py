@@ -22,9 +22,9 @@ from numpy.polynomial import polynomial as P
 from scipy import optimize
 
 from ..models import Model
-from ..models.terms import ring_ladder_modes, uniform_rings
+from ..models.rational import rational_form
 
-__all__ = ["instability_threshold", "closed_loop_poles", "is_rational", "wide_grid_impedance", "foster_form"]
+__all__ = ["instability_threshold", "closed_loop_poles", "is_rational", "wide_grid_impedance"]
 
 RATIONAL_MODELS = ("I", "II", "NL", "UL")
 
@@ -68,53 +68,13 @@ def instability_threshold(model: Model, theta, Cs: float, *, grid=None, refine: 
     return best
 
 
-def foster_form(model: Model, theta):
-    """``Ze = R0 + G s + Σ_k L_k s / (1 + τ_k s)`` for a rational model: ``(R0, G, L, tau)``.
-
-    I: ``G = L0``, no sections; II: one section (``L0`` in parallel with ``Rμ``: ``τ = L0/Rμ``);
-    NL/UL: the modal form of the ring ladder (:func:`~bayes_emt.models.terms.ring_ladder_modes`).
-    """
-    p = model.as_dict(theta)
-    if model.name == "I":
-        return p["R0"], p["L0"], np.zeros(0), np.zeros(0)
-    if model.name == "II":
-        return p["R0"], 0.0, np.array([p["L0"]]), np.array([p["L0"] / p["Rmu"]])
-    n = model.rings
-    if model.name == "UL":
-        Pg, Pv, Rv = uniform_rings(p["Lg"], p["alpha"], p["beta"], n, model.n_turns)
-    elif model.name == "NL":
-        Pg = p["Pg"]
-        Pv = np.array([p[f"P{j}"] for j in range(1, n + 1)])
-        Rv = np.array([p[f"R{j}"] for j in range(1, n + 1)])
-    else:
-        raise ValueError(f"model {model.name} is not rational")
-    gap, Lk, tau = ring_ladder_modes(np.asarray(Pg), Pv, Rv, model.n_turns)
-    return p["R0"], float(gap), Lk, tau
-
-
-def _electrical_rational(model: Model, theta):
-    """``Ze = Zc + R0`` as (numerator, denominator) coefficient arrays, lowest power first."""
-    R0, G, Lk, tau = foster_form(model, theta)
-    den = np.array([1.0])
-    for t in tau:
-        den = P.polymul(den, [1.0, t])
-    num = P.polymul([R0, G], den)
-    for k in range(tau.size):
-        others = np.array([1.0])
-        for j in range(tau.size):
-            if j != k:
-                others = P.polymul(others, [1.0, tau[j]])
-        num = P.polyadd(num, P.polymul([0.0, Lk[k]], others))
-    return num, den
-
-
 def closed_loop_poles(model: Model, theta, Rs: float, Cs: float) -> np.ndarray:
     """Poles [1/s] of the RC-shunted system (rational models only)."""
     if not is_rational(model):
         raise ValueError(f"exact poles need a rational model ({', '.join(RATIONAL_MODELS)}); "
                          f"{model.name} has a Bessel term: use instability_threshold")
     zeta, omega0, phi = (float(v) for v in model.mechanics(theta))
-    num, den = _electrical_rational(model, theta)
+    num, den = rational_form(model, theta)
     mech = np.array([omega0**2, 2 * zeta * omega0, 1.0])
     loop = P.polyadd(P.polymul(num, [0.0, Cs]), P.polymul(den, [1.0, Rs * Cs]))
     char = P.polyadd(P.polymul(mech, loop), P.polymul([0.0, 0.0, phi**2 * Cs], den))
