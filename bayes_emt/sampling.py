@@ -40,7 +40,7 @@ from .models import Model
 from .posterior import Posterior
 from .results import FitResult
 
-__all__ = ["SamplerSettings", "sample_posterior", "initial_walkers"]
+__all__ = ["SamplerSettings", "sample_posterior", "initial_walkers", "default_moves"]
 
 _GROUP = "mcmc"
 
@@ -56,6 +56,16 @@ class SamplerSettings:
     tau_rtol: float = 0.05
     ess_target: float = 1000.0
     max_draws: int = 2000
+
+
+def default_moves():
+    """Differential evolution (80 %) with the affine-invariant stretch move (20 %).
+
+    Not ``DESnookerMove``: on a correlated 7-D Gaussian, emcee 3.1.6's snooker move alone gave
+    marginal standard deviations 15 % too small, and DE + 20 % snooker 2 % too small (which showed
+    as 3 % under-coverage in the calibration script); DE and stretch reproduce the target
+    (tests/test_posterior.py::test_default_moves_sample_a_gaussian_exactly)."""
+    return [(emcee.moves.DEMove(), 0.8), (emcee.moves.StretchMove(), 0.2)]
 
 
 def initial_walkers(lik: Likelihood, fit: FitResult, nwalkers: int, rng: np.random.Generator) -> np.ndarray:
@@ -156,7 +166,7 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
             fit = fit_admittance(meas, model)
         rng = np.random.default_rng(seed)
         start = initial_walkers(lik, fit, nwalkers, rng)
-    moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    moves = default_moves()
     sampler = emcee.EnsembleSampler(nwalkers, ndim, lik.log_posterior_z, moves=moves, vectorize=True,
                                     backend=backend)
     sampler.random_state = np.random.RandomState(seed).get_state()
