@@ -21,8 +21,10 @@ Two stages, both linear least squares:
    candidate with the smaller residual wins). NL and UL start from the UD estimate through the UL
    formulas (SPEC §2).
 
-If the linearised estimate is poor (non-physical, or a large residual), a multi-start over
-perturbed plant estimates is tried; the path taken is returned in :class:`InitialEstimate`.
+Every candidate (one per band) is completed with its coil estimate and scored by the rms
+relative residual over all data; the best wins. If no band gives a physical linearised plant,
+the resonance peak's height and width, and a multi-start around them, are tried instead. The path
+taken is returned in :class:`InitialEstimate`.
 """
 
 from __future__ import annotations
@@ -157,7 +159,35 @@ def coil_estimate(meas: Measurement, model: Model, plant) -> dict[str, float]:
     err, al, coef = _scan_alpha(omega, Zc, basis, al * np.geomspace(0.9, 1.1, 41))
     beta = coef[0]
     Lg = coef[1] if with_gap and coef.size > 1 and coef[1] > 0 else 1e-3 * L_lf
+    paper = _rational_bessel_estimate(s, Zc, with_gap)
+    if paper is not None:
+        cols = basis(paper["alpha"])
+        vec = np.array([paper["beta"]] + ([paper["Lg"]] if with_gap else []))
+        if np.sqrt(np.mean(np.abs((cols @ vec - Zc) / Zc) ** 2)) < err:
+            return paper
     out = {"alpha": float(al), "beta": float(beta)}
+    if with_gap:
+        out["Lg"] = float(Lg)
+    return out
+
+
+def _rational_bessel_estimate(s, Zc, with_gap: bool):
+    """The paper's variant (SPEC §3.1): the Bessel ratio replaced by its first-order rational
+    approximation ``Z_III ≈ k s (α s + 8)/(4 α s + 16)``, ``k = β sqrt(α)``, plus ``Lg s`` for UD:
+    ``16 Zc = −4 α s Zc + c2 s² + c1 s`` is linear in ``(α, c2, c1)`` with ``c1 = 16 Lg + 8 k``,
+    ``c2 = (4 Lg + k) α``. Returns None when the mapped values are not physical."""
+    x = _lstsq_real(np.column_stack([-4 * s * Zc, s * s, s]), 16 * Zc, 1 / np.abs(Zc))
+    alpha, c2, c1 = x
+    if not alpha > 0:
+        return None
+    if with_gap:
+        k = c1 / 4 - c2 / alpha
+        Lg = c1 / 16 - k / 2
+    else:  # Lg = 0: c1 = 8 k
+        k, Lg = c1 / 8, 0.0
+    if not (k > 0 and (Lg > 0 or not with_gap)):
+        return None
+    out = {"alpha": float(alpha), "beta": float(k / np.sqrt(alpha))}
     if with_gap:
         out["Lg"] = float(Lg)
     return out
