@@ -44,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = _showwarning
     try:
         rc = args.func(args)
-    except (BayesEMTError, ValueError, KeyError, FileNotFoundError, IsADirectoryError,
+    except (BayesEMTError, ValueError, KeyError, FileNotFoundError, FileExistsError, IsADirectoryError,
             PermissionError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"bayes-emt: error: {msg}", file=sys.stderr)

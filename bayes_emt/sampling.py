@@ -95,6 +95,22 @@ def initial_walkers(lik: Likelihood, fit: FitResult, nwalkers: int, rng: np.rand
     raise FitError("could not start the walkers: the posterior is zero around the least-squares fit")
 
 
+def _stopping_rule(backend, n: int, nwalkers: int, settings: SamplerSettings) -> dict:
+    """The stopping rule at step ``n``, a pure function of the stored chain (so a resumed run
+    decides exactly as an uninterrupted one would)."""
+    chain = backend.get_chain()[:n]
+    tau = emcee.autocorr.integrated_time(chain, tol=0)
+    prev = n - settings.check_every
+    stable = prev >= settings.check_every and bool(
+        np.all(np.abs(tau - emcee.autocorr.integrated_time(chain[:prev], tol=0)) / tau < settings.tau_rtol))
+    burn = int(math.ceil(2 * np.max(tau)))
+    ess = nwalkers * max(n - burn, 0) / tau
+    long_enough = bool(n >= settings.min_tau_multiple * np.max(tau))
+    return {"step": int(n), "tau_max": float(np.max(tau)), "ess_min": float(np.min(ess)),
+            "tau_stable": stable, "long_enough": long_enough,
+            "converged": long_enough and stable and bool(np.min(ess) >= settings.ess_target)}
+
+
 def _meta(lik: Likelihood, seed: int, nwalkers: int) -> dict:
     return {"model": lik.model.label, "names": list(lik.params.names), "likelihood": lik.kind,
             "nu": lik.nu, "seed": int(seed), "nwalkers": int(nwalkers), "source": lik.meas.source,
@@ -116,7 +132,8 @@ def _check_resume(path: Path, meta: dict) -> None:
 def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None = None, seed: int = 0,
                      max_steps: int | None = None, checkpoint: str | Path | None = None,
                      resume: bool = False, progress: bool | None = None, likelihood: str = "gaussian",
-                     nu: float = 4.0, settings: SamplerSettings = SamplerSettings()) -> Posterior:
+                     nu: float = 4.0, settings: SamplerSettings = SamplerSettings(),
+                     overwrite: bool = False) -> Posterior:
     """Sample the posterior of ``model`` given ``meas`` with emcee (see module docstring).
 
     Parameters
@@ -129,11 +146,14 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
     resume : continue the run stored in ``checkpoint`` (same model, data, seed).
     progress : tqdm progress bar (default: when stderr is a terminal).
     likelihood, nu : ``"gaussian"`` or ``"student"`` (with ``nu`` degrees of freedom).
+    overwrite : replace an existing ``checkpoint`` (otherwise that raises: it may hold a long run).
     """
     t0 = time.perf_counter()
     max_steps = int(max_steps or settings.max_steps)
     if max_steps < 1:
         raise ValueError(f"max_steps must be positive, got {max_steps}")
+    if resume and checkpoint is None:
+        raise ValueError("resume needs the checkpoint file of the run to continue")
     lik = Likelihood(model, meas, likelihood, nu)
     ndim = lik.ndim
     nwalkers = max(settings.walkers_per_dim * ndim, 2 * ndim + 2)
@@ -154,7 +174,10 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
             backend = emcee.backends.HDFBackend(str(path), name=_GROUP)
         else:
             if path.exists():
-                path.unlink()  # a new run: never append to an old chain
+                if not overwrite:
+                    raise FileExistsError(f"{path}: a checkpoint exists; continue it with --resume, "
+                                          "or start afresh with --overwrite (or another --checkpoint)")
+                path.unlink()
             backend = emcee.backends.HDFBackend(str(path), name=_GROUP)
             backend.reset(nwalkers, ndim)
             with h5py.File(path, "a") as f:
@@ -171,25 +194,19 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
                                     backend=backend)
     sampler.random_state = np.random.RandomState(seed).get_state()
     history = []
-    tau_prev = None
     converged = False
     while True:
         n = backend.iteration
+        if n > 0 and (n % settings.check_every == 0 or n >= max_steps):
+            verdict = _stopping_rule(backend, n, nwalkers, settings)
+            history.append(verdict)
+            if verdict["converged"]:
+                converged = True
+                break
         if n >= max_steps:
             break
         chunk = min(settings.check_every - n % settings.check_every, max_steps - n)
         sampler.run_mcmc(start if n == 0 else None, chunk, progress=progress)
-        n = backend.iteration
-        tau = backend.get_autocorr_time(tol=0)
-        burn = int(math.ceil(2 * np.max(tau)))
-        ess = nwalkers * max(n - burn, 0) / tau
-        stable = tau_prev is not None and np.all(np.abs(tau - tau_prev) / tau < settings.tau_rtol)
-        long_enough = n >= settings.min_tau_multiple * np.max(tau)
-        history.append({"step": n, "tau_max": float(np.max(tau)), "ess_min": float(np.min(ess))})
-        tau_prev = tau
-        if long_enough and stable and np.min(ess) >= settings.ess_target:
-            converged = True
-            break
     tau = backend.get_autocorr_time(tol=0)
     n = backend.iteration
     message = "converged" if converged else (

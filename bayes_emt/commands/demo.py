@@ -98,7 +98,7 @@ def run(args) -> int:
         _section(f"posterior of {model.label} by emcee (seed {args.seed})")
         fit = fits["NL"] if rc.rings == 5 else None
         post = sample_posterior(meas, model, fit=fit, seed=args.seed, max_steps=args.max_steps,
-                                checkpoint=out / "posterior.h5")
+                                checkpoint=out / "posterior.h5", overwrite=True)
         print(("converged" if post.converged else "NOT CONVERGED: " + post.message)
               + f": {post.n_steps} steps x {post.draws.shape[0]} walkers, tau_max {max(post.tau):.0f}, "
               f"{post.wall_time:.0f} s")

@@ -16,6 +16,7 @@ def register(sub) -> None:
     p.add_argument("--checkpoint", default=None,
                    help="HDF5 checkpoint (default: the --out path with .h5); resume with --resume")
     p.add_argument("--resume", action="store_true", help="continue the run in the checkpoint")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing checkpoint")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--max-steps", type=int, default=20000, help="step budget (default 20000)")
     p.add_argument("--likelihood", choices=["gaussian", "student"], default="gaussian")
@@ -43,7 +44,8 @@ def run(args) -> int:
     ckpt = Path(args.checkpoint) if args.checkpoint else out.with_suffix(".h5")
     post = sample_posterior(meas, model, seed=args.seed, max_steps=args.max_steps, checkpoint=ckpt,
                             resume=args.resume, progress=False if args.quiet else None,
-                            likelihood=args.likelihood, nu=args.nu, settings=SamplerSettings())
+                            likelihood=args.likelihood, nu=args.nu, settings=SamplerSettings(),
+                            overwrite=args.overwrite)
     print(f"model {model.label}: {post.n_steps} steps x {post.draws.shape[0]} walkers, "
           f"tau_max {max(post.tau):.0f} steps, burn {post.burn}, thin {post.thin}, "
           f"acceptance {post.acceptance:.2f}, {post.wall_time:.1f} s")
