@@ -378,6 +378,11 @@ _DEFAULTS: dict[str, tuple[str, str, Prior, str]] = {
     "Pg": ("H", r"$P_g$", LogUniform(1e-16, 1e-2), "air-gap permeance (per turn squared)"),
     "P": ("H", r"$P_{j}$", LogUniform(1e-16, 1e-2), "permeance of core ring j"),
     "R": ("ohm", r"$R_{j}$", LogUniform(1e-12, 1e2), "eddy-current resistance of core ring j"),
+    # physical parameters separated by an added-mass pair (SPEC §3.4)
+    "m": ("kg", r"$m$", LogUniform(1e-6, 1e4), "moving mass"),
+    "c": ("N s/m", r"$c$", LogUniform(1e-9, 1e6), "mechanical viscous damping"),
+    "k": ("N/m", r"$k$", LogUniform(1e-6, 1e10), "mechanical stiffness"),
+    "phi_raw": ("N/A", r"$\varphi$", LogUniform(1e-6, 1e4), "electromechanical coupling (force factor Bl)"),
 }
 _RING = re.compile(r"^([PR])(\d+)$")
 
