@@ -1,19 +1,29 @@
 """Two-step weighted nonlinear least squares (SPEC §3.2), then an honest covariance.
 
-Residuals are ``W(jω) (Y_model − Y_meas)`` stacked as real and imaginary parts, minimised with
-``scipy.optimize.least_squares`` (trust-region reflective) in sampling space (log of positive
-parameters, bounded by the prior support):
+Residuals ``W(jω) (Y_model − Y_meas)`` are stacked as real and imaginary parts and minimised
+with ``scipy.optimize.least_squares`` (trust-region reflective) in sampling space (log of
+positive parameters, bounded by the prior support), from the automatic initial estimate
+(:mod:`bayes_emt.guess`):
 
-1. all parameters with ``W = 1/(jω)`` (emphasises the resonance); keep ``R0`` and ``ω0``;
+0. *start-up*: all parameters, relative residuals ``(Y_model − Y_meas)/|Y_meas|``, from the
+   initial estimate and its runners-up (the best end point goes on). This converges fast and
+   robustly from a linearised estimate, so the paper's steps start near their own optima;
+1. all parameters with ``W = 1/(jω)`` (emphasises the resonance); ``R0`` and ``ω0`` are kept;
 2. the others with ``W = 1`` (the paper's procedure, MATLAB ``lsqnonlin`` there);
-3. *polish*: all parameters with relative residuals ``(Y_model − Y_meas)/|Y_meas|`` (times the
-   measurement's own weights, if any). This matches the noise of an LCR meter, whose accuracy is
-   specified relative to the reading, and is the weighting under which the Jacobian covariance
-   ``s² (JᵀJ)⁻¹`` is an honest standard error. Without it, ``R0`` and ``ω0`` would keep the step-1
-   values and their errors would be those of a differently weighted problem.
+3. *polish*: all parameters with relative residuals again (times the measurement's own weights,
+   if any), from the end of step 2 and — if that scored better — from the end of step 0.
 
-The Jacobian is by central differences, all ``2k`` perturbed parameter sets evaluated in one
-vectorised model call.
+Why the polish: the simulator's noise, and an LCR meter's accuracy, are relative to the reading,
+with equal spread in the real and imaginary parts. Only under that weighting is the Jacobian
+covariance ``s² (JᵀJ)⁻¹`` (``s²`` the residual variance) an honest standard error; after the
+paper's steps ``R0`` and ``ω0`` would carry the step-1 values and their errors would belong to a
+differently weighted problem. The step-1 weighting ``1/ω`` also leaves weakly identified
+directions (NL rings) free to drift into a worse valley of the relative objective; starting the
+polish from the step-0 point as well guards against that.
+
+Jacobians are finite differences over parameter sets, evaluated in one vectorised model call:
+forward differences (``k + 1`` sets) inside the optimiser, central ones (``2k`` sets) for the
+final covariance.
 """
 
 from __future__ import annotations
@@ -27,19 +37,20 @@ from scipy import optimize
 from .checks import check_fit_inputs
 from .data import Measurement
 from .errors import FitError
-from .guess import initial_estimate
+from .guess import find_initial_estimate
 from .models import Model, build_model
 from .models.terms import uniform_rings
 from .results import FitResult
 
 __all__ = ["fit_admittance", "covariance_z", "relative_residuals", "central_jacobian",
-           "batched_least_squares"]
+           "forward_jacobian", "batched_least_squares"]
 
 _FD_STEP = 1e-6  # central-difference step in sampling space (relative for log parameters)
+_FWD_STEP = 1e-7  # forward-difference step (≈ sqrt of machine epsilon)
 
 
 def relative_residuals(model: Model, meas: Measurement, theta) -> np.ndarray:
-    """Complex ``(Y_model − Y_meas)/|Y_meas|`` per frequency."""
+    """Complex ``(Y_model − Y_meas)/|Y_meas|`` per frequency (dimensionless)."""
     return (model.admittance(meas.omega, theta) - meas.Y) / np.abs(meas.Y)
 
 
@@ -57,18 +68,41 @@ def central_jacobian(fun_batch, z, step: float = _FD_STEP):
     return np.where(np.isfinite(J), J, 0.0).T
 
 
-def batched_least_squares(fun_batch, z0, lo, hi, *, max_nfev: int, tol: float = 1e-14):
-    """``scipy.optimize.least_squares`` (trust-region reflective, bounded) of a batched residual;
-    non-finite residuals are replaced by a large value so the optimiser backs off."""
+def forward_jacobian(fun_batch, z, step: float = _FWD_STEP, f0=None):
+    """Jacobian ``(m, k)`` of a batched residual by forward differences: the point and its ``k``
+    perturbations in one ``(k + 1, k)`` call (or ``k`` if the residual ``f0`` at ``z`` is given)."""
+    k = z.size
+    h = step * np.maximum(1.0, np.abs(z))
+    stack = np.repeat(z[None, :], k + (f0 is None), axis=0)
+    idx = np.arange(k)
+    stack[idx, idx] += h
+    r = fun_batch(stack)
+    base = r[k] if f0 is None else f0
+    J = (r[:k] - base) / h[:, None]
+    return np.where(np.isfinite(J), J, 0.0).T
+
+
+def batched_least_squares(fun_batch, z0, lo, hi, *, max_nfev: int, tol: float = 1e-14,
+                          jacobian: str = "central"):
+    """``scipy.optimize.least_squares`` (trust-region reflective, bounded) of a batched residual
+    ``fun_batch((B, k)) -> (B, m)``; non-finite residuals are replaced by a large value so the
+    optimiser backs off. ``jacobian``: ``"central"`` or ``"forward"`` differences."""
 
     def fun(z):
         r = fun_batch(z[None, :])[0]
         return np.where(np.isfinite(r), r, 1e10)
 
+    if jacobian == "central":
+        def jac(z):
+            return central_jacobian(fun_batch, z)
+    elif jacobian == "forward":
+        def jac(z):
+            return forward_jacobian(fun_batch, z)
+    else:
+        raise ValueError(f"jacobian must be 'central' or 'forward', got {jacobian!r}")
     z0 = np.clip(z0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
-    return optimize.least_squares(fun, z0, jac=lambda z: central_jacobian(fun_batch, z), bounds=(lo, hi),
-                                  method="trf", x_scale="jac", ftol=tol, xtol=tol, gtol=tol,
-                                  max_nfev=max_nfev)
+    return optimize.least_squares(fun, z0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
+                                  ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
 
 
 class _Problem:
@@ -90,11 +124,13 @@ class _Problem:
     def residuals(self, zf):
         return self.batch(zf[None, :])[0]
 
-    def jacobian(self, zf):
-        return central_jacobian(self.batch, zf)
+    def cost(self, zf) -> float:
+        r = self.residuals(zf)
+        return float(r @ r) if np.all(np.isfinite(r)) else np.inf
 
     def solve(self, zf0, lo, hi, max_nfev, tol=1e-14):
-        return batched_least_squares(self.batch, zf0, lo, hi, max_nfev=max_nfev, tol=tol)
+        return batched_least_squares(self.batch, zf0, lo, hi, max_nfev=max_nfev, tol=tol,
+                                     jacobian="forward")
 
 
 def covariance_z(J: np.ndarray, r: np.ndarray, n_params: int) -> np.ndarray | None:
@@ -115,7 +151,28 @@ def _as_theta(model: Model, initial) -> np.ndarray:
     theta = np.asarray(initial, float)
     if theta.shape != (model.ndim,):
         raise ValueError(f"initial must have {model.ndim} values for model {model.label}")
+    if not np.all(np.isfinite(model.params.to_z(theta))):
+        raise ValueError(f"initial values for model {model.label} must be finite and positive")
     return theta
+
+
+def _starts(meas: Measurement, model: Model, initial, max_nfev):
+    """Starting vectors (best first) and the provenance record for ``info["initial"]``."""
+    if initial is not None:
+        return [_as_theta(model, initial)], {"path": "user"}
+    if model.name == "NL":
+        # SPEC §3.1: NL starts from the uniform-core estimate through the UL formulas; fitting
+        # UL (3 coil parameters) first puts the 2n+1 ring parameters much closer
+        ul = fit_admittance(meas, build_model("UL", rings=model.rings, n_turns=model.n_turns),
+                            max_nfev=max_nfev)
+        p = ul.parameters
+        Pg, P, R = uniform_rings(p["Lg"], p["alpha"], p["beta"], model.rings, model.n_turns)
+        return ([np.concatenate([ul.theta[:4], [Pg], P, R])],
+                {"path": "UL fit -> uniform rings", "UL": p, "UL_initial": ul.info.get("initial")})
+    ie = find_initial_estimate(meas, model)
+    return [ie.theta, *ie.alternatives], {
+        "path": ie.path, "band_rad_s": list(ie.band), "rms_rel_residual": ie.rms_rel_residual,
+        "global_stage": ie.details.get("global_stage", False), "alternatives": len(ie.alternatives)}
 
 
 def fit_admittance(meas: Measurement, model: Model, *, initial=None,
@@ -125,86 +182,92 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
 
     Parameters
     ----------
-    meas : measurement (angular frequencies in rad/s, admittance in S).
+    meas : measurement (angular frequencies [rad/s], admittance [S]).
     model : the model to fit.
-    initial : optional start (dict or vector of physical values); default: automatic.
+    initial : optional start (dict or vector of physical values, SI); default: automatic.
     omega_range : optional (omega_min, omega_max) [rad/s] to restrict the data.
-    polish : run step 3 (relative residuals, all parameters) after the paper's two steps.
+    polish : run step 3 (relative residuals, all parameters) after the paper's two steps; without
+        it the estimate is the paper's (step 2) and the covariance is still computed with relative
+        residuals at that point.
     max_nfev : evaluation budget of the final polish (default 25 per parameter; the intermediate
         steps get at most 30 per parameter). A polish that runs out reports ``success=False``.
 
     Returns
     -------
-    FitResult with physical values, sampling-space covariance, chi² and rms relative residual.
+    FitResult
+        Physical values, sampling-space covariance ``cov_z`` (relative-residual Jacobian at the
+        estimate, scaled by the residual variance), ``chi2`` = sum of squared relative residuals,
+        rms relative residual, and ``info``: ``initial`` (path of the start), ``steps`` (label,
+        nfev, cost, seconds each), ``final_start``, ``seconds``, ``at_prior_bound``.
+
+    Raises
+    ------
+    DataFormatError : too few points for the model.
+    FitError : no initial estimate, or the fit diverged.
     """
     t0 = time.perf_counter()
     if omega_range is not None:
         meas = meas.select(*omega_range)
     check_fit_inputs(meas, model.ndim, label=model.label)
-    info: dict = {}
-    if initial is None and model.name == "NL":
-        # SPEC §3.1: NL starts from the uniform-core estimate through the UL formulas; fitting
-        # UL (3 coil parameters) first puts the 2n+1 ring parameters much closer
-        ul = fit_admittance(meas, build_model("UL", rings=model.rings, n_turns=model.n_turns),
-                            polish=True, max_nfev=max_nfev)
-        p = ul.parameters
-        Pg, P, R = uniform_rings(p["Lg"], p["alpha"], p["beta"], model.rings, model.n_turns)
-        theta0 = np.concatenate([ul.theta[:4], [Pg], P, R])
-        info["initial"] = {"path": "UL fit -> uniform rings", "UL": p,
-                           "UL_initial": ul.info.get("initial")}
-    elif initial is None:
-        ie = initial_estimate(meas, model)
-        theta0 = ie.theta
-        info["initial"] = {"path": ie.path, "band_rad_s": list(ie.band),
-                           "rms_rel_residual": ie.rms_rel_residual}
-    else:
-        theta0 = _as_theta(model, initial)
-        info["initial"] = {"path": "user"}
     k = model.ndim
     max_nfev = max_nfev or 25 * k
+    starts, info_initial = _starts(meas, model, initial, max_nfev)
+    info: dict = {"initial": info_initial}
     lo, hi = model.params.bounds_z()
-    z = model.params.to_z(theta0)
     s = 1j * meas.omega
     all_free = np.ones(k, bool)
+    wrel = 1.0 / np.abs(meas.Y)
+    if meas.weights is not None:
+        wrel = wrel * meas.weights
     steps = []
 
-    def run(weight, free, label):
-        nonlocal z
+    def run(z_start, weight, free, label, *, budget, tol):
+        t = time.perf_counter()
         w = weight / np.sqrt(np.mean(np.abs(weight * meas.Y) ** 2))  # residuals of order one
-        prob = _Problem(model, meas, w, np.flatnonzero(free), z)
-        # the intermediate steps only hand on a starting point (and R0, omega0): a looser
-        # tolerance and budget; ill-conditioned valleys (NL with 1/s weighting) would otherwise
-        # crawl for thousands of evaluations towards the same end point the polish reaches
-        sol = prob.solve(z[free], lo[free], hi[free], min(max_nfev, 30 * k), tol=1e-10)
-        z = z.copy()
+        prob = _Problem(model, meas, w, np.flatnonzero(free), z_start)
+        sol = prob.solve(z_start[free], lo[free], hi[free], budget, tol=tol)
+        z = z_start.copy()
         z[free] = sol.x
         steps.append({"step": label, "nfev": int(sol.nfev), "cost": float(sol.cost),
-                      "status": int(sol.status), "message": sol.message})
-        return sol, prob
+                      "status": int(sol.status), "message": sol.message,
+                      "seconds": time.perf_counter() - t})
+        return z, sol
 
-    # start-up: the relative-residual problem converges fast and robustly from the linearised
-    # estimate; the paper's steps then start close to their own optima
-    run(1.0 / np.abs(meas.Y), all_free, "0: start-up, all parameters, relative residuals")
-    run(1.0 / np.abs(s), all_free, "1: all parameters, W = 1/s")
+    # the intermediate steps only hand on a starting point (and R0, omega0): a looser tolerance
+    # and budget; ill-conditioned valleys (NL with 1/s weighting) would otherwise crawl for
+    # thousands of evaluations towards the same end point the polish reaches
+    mid = {"budget": min(max_nfev, 30 * k), "tol": 1e-10}
+    final = _Problem(model, meas, wrel, np.arange(k), np.zeros(k))
+    best = None
+    for i, theta0 in enumerate(starts):
+        z, _ = run(model.params.to_z(theta0), wrel, all_free,
+                   f"0: start-up {i}, all parameters, relative residuals", **mid)
+        c = final.cost(z)
+        if best is None or c < best[0]:
+            best = (c, z, i)
+    cost0, z0, info["start_used"] = best
+    z, _ = run(z0, 1.0 / np.abs(s), all_free, "1: all parameters, W = 1/s", **mid)
     keep = np.isin(model.names, ("R0", "omega0"))
-    sol, prob = run(np.ones(meas.n_points), ~keep, "2: R0, omega0 fixed, W = 1")
+    z, sol = run(z, np.ones(meas.n_points), ~keep, "2: R0, omega0 fixed, W = 1", **mid)
+    info["final_start"] = "step 2"
     if polish:
-        wrel = 1.0 / np.abs(meas.Y)
-        if meas.weights is not None:
-            wrel = wrel * meas.weights
-        # undo the order-one normalisation so residuals are the relative errors themselves
-        prob = _Problem(model, meas, wrel, np.arange(k), z)
-        sol = prob.solve(z, lo, hi, max_nfev)
+        # the polish works on the relative residuals themselves (no order-one normalisation)
+        t = time.perf_counter()
+        sol = final.solve(z, lo, hi, max_nfev)
+        if final.cost(z0) < 2 * sol.cost:
+            # the paper's steps ended in a worse valley than the start-up: polish that too
+            alt = final.solve(z0, lo, hi, max_nfev)
+            if alt.cost < sol.cost:
+                sol, info["final_start"] = alt, "step 0"
         z = sol.x
-        steps.append({"step": "3: polish, all parameters, relative residuals", "nfev": int(sol.nfev),
-                      "cost": float(sol.cost), "status": int(sol.status), "message": sol.message})
-    else:
-        prob = _Problem(model, meas, 1.0 / np.abs(meas.Y), np.arange(k), z)
-    r = prob.residuals(z)
-    J = prob.jacobian(z)
+        steps.append({"step": f"3: polish from {info['final_start']}, all parameters, relative residuals",
+                      "nfev": int(sol.nfev), "cost": float(sol.cost), "status": int(sol.status),
+                      "message": sol.message, "seconds": time.perf_counter() - t})
     theta = model.params.from_z(z)
     if not np.all(np.isfinite(theta)):
         raise FitError(f"{meas.source}: the fit of model {model.label} diverged")
+    r = final.residuals(z)
+    J = central_jacobian(final.batch, z)
     rel = relative_residuals(model, meas, theta)
     info["steps"] = steps
     info["seconds"] = time.perf_counter() - t0
@@ -215,4 +278,4 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     return FitResult(model=model, theta=theta, cov_z=covariance_z(J, r, k),
                      chi2=float(r @ r), rms_rel_residual=float(np.sqrt(np.mean(np.abs(rel) ** 2))),
                      n_points=meas.n_points, success=bool(sol.status > 0), message=str(sol.message),
-                     initial=theta0, info=info)
+                     initial=np.array(starts[0], float), info=info)

@@ -1,4 +1,7 @@
-"""``bayes-emt fit DATA --model M``: initial estimate and two-step least squares."""
+"""``bayes-emt fit DATA --model M [--rings N] [--json OUT]``: automatic initial estimate and
+two-step weighted least squares (SPEC §3.1–3.2); prints name, value, unit and standard error of
+every parameter, the rms relative residual and chi², and writes
+:meth:`~bayes_emt.results.FitResult.to_json_dict` as JSON (atomically)."""
 
 from __future__ import annotations
 
@@ -36,6 +39,11 @@ def run(args) -> int:
     print_table(rows, ("parameter", "value", "unit", "std error"))
     print(f"rms relative residual {fit.rms_rel_residual:.4g}   chi2 {fit.chi2:.4g}   "
           f"({fit.info['seconds']:.2f} s)")
+    print(f"initial estimate: {fit.info['initial']['path']}")
+    if not fit.success:
+        print(f"note: the optimiser did not converge ({fit.message})")
+    if fit.cov_z is None:
+        print("note: the Jacobian is rank-deficient; no standard errors")
     if fit.info.get("at_prior_bound"):
         print(f"note: at the edge of the physical range: {', '.join(fit.info['at_prior_bound'])}")
     if args.json:
