@@ -6,7 +6,8 @@ positive parameters, bounded by the prior support), from the automatic initial e
 (:mod:`bayes_emt.guess`):
 
 0. *start-up*: all parameters, relative residuals ``(Y_model − Y_meas)/|Y_meas|``, from the
-   initial estimate and its runners-up (the best end point goes on). This converges fast and
+   initial estimate and its runners-up (the best end point goes on; NL: from a UL fit through the
+   UL formulas, SPEC §3.1, and from the unfitted uniform-ring estimate). This converges fast and
    robustly from a linearised estimate, so the paper's steps start near their own optima;
 1. all parameters with ``W = 1/(jω)`` (emphasises the resonance); ``R0`` and ``ω0`` are kept;
 2. the others with ``W = 1`` (the paper's procedure, MATLAB ``lsqnonlin`` there);
@@ -19,7 +20,9 @@ covariance ``s² (JᵀJ)⁻¹`` (``s²`` the residual variance) an honest standa
 paper's steps ``R0`` and ``ω0`` would carry the step-1 values and their errors would belong to a
 differently weighted problem. The step-1 weighting ``1/ω`` also leaves weakly identified
 directions (NL rings) free to drift into a worse valley of the relative objective; starting the
-polish from the step-0 point as well guards against that.
+polish from the step-0 point as well guards against that. Measured over 20 noisy data sets per
+model (0.2 %, tests/test_fitting.py): 69–74 % of the errors lie within one standard error and
+94–98 % within two, as a Gaussian's 68 % and 95 %.
 
 Jacobians are finite differences over parameter sets, evaluated in one vectorised model call:
 forward differences (``k + 1`` sets) inside the optimiser, central ones (``2k`` sets) for the
@@ -157,20 +160,25 @@ def _as_theta(model: Model, initial) -> np.ndarray:
 
 
 def _starts(meas: Measurement, model: Model, initial, max_nfev):
-    """Starting vectors (best first) and the provenance record for ``info["initial"]``."""
+    """Starting vectors (best first), their provenance, and the record for ``info["initial"]``."""
     if initial is not None:
-        return [_as_theta(model, initial)], {"path": "user"}
+        return [_as_theta(model, initial)], ["user"], {"path": "user"}
     if model.name == "NL":
         # SPEC §3.1: NL starts from the uniform-core estimate through the UL formulas; fitting
-        # UL (3 coil parameters) first puts the 2n+1 ring parameters much closer
+        # UL (3 coil parameters) first puts the 2n+1 ring parameters much closer. UL misfits
+        # strongly non-uniform cores, and its fit can then settle on a wrong plant: the unfitted
+        # uniform-ring estimate is a second start
         ul = fit_admittance(meas, build_model("UL", rings=model.rings, n_turns=model.n_turns),
                             max_nfev=max_nfev)
         p = ul.parameters
         Pg, P, R = uniform_rings(p["Lg"], p["alpha"], p["beta"], model.rings, model.n_turns)
-        return ([np.concatenate([ul.theta[:4], [Pg], P, R])],
-                {"path": "UL fit -> uniform rings", "UL": p, "UL_initial": ul.info.get("initial")})
+        ie = find_initial_estimate(meas, model)
+        return ([np.concatenate([ul.theta[:4], [Pg], P, R]), ie.theta],
+                ["UL fit -> uniform rings", ie.path],
+                {"path": "UL fit -> uniform rings", "UL": p, "UL_initial": ul.info.get("initial"),
+                 "alternatives": 1, "alternative_path": ie.path})
     ie = find_initial_estimate(meas, model)
-    return [ie.theta, *ie.alternatives], {
+    return [ie.theta, *ie.alternatives], [ie.path] + ["runner-up"] * len(ie.alternatives), {
         "path": ie.path, "band_rad_s": list(ie.band), "rms_rel_residual": ie.rms_rel_residual,
         "global_stage": ie.details.get("global_stage", False), "alternatives": len(ie.alternatives)}
 
@@ -197,8 +205,10 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     FitResult
         Physical values, sampling-space covariance ``cov_z`` (relative-residual Jacobian at the
         estimate, scaled by the residual variance), ``chi2`` = sum of squared relative residuals,
-        rms relative residual, and ``info``: ``initial`` (path of the start), ``steps`` (label,
-        nfev, cost, seconds each), ``final_start``, ``seconds``, ``at_prior_bound``.
+        rms relative residual, and ``info``: ``initial`` (how the starts were found),
+        ``start_used`` (index of the start whose step 0 scored best), ``path`` (one line: start,
+        steps, where the polish began), ``final_start`` (``"step 2"`` or ``"step 0"``), ``steps``
+        (label, nfev, cost, status, seconds each), ``seconds``, ``at_prior_bound`` (if any).
 
     Raises
     ------
@@ -211,7 +221,7 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     check_fit_inputs(meas, model.ndim, label=model.label)
     k = model.ndim
     max_nfev = max_nfev or 25 * k
-    starts, info_initial = _starts(meas, model, initial, max_nfev)
+    starts, labels, info_initial = _starts(meas, model, initial, max_nfev)
     info: dict = {"initial": info_initial}
     lo, hi = model.params.bounds_z()
     s = 1j * meas.omega
@@ -246,6 +256,8 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         if best is None or c < best[0]:
             best = (c, z, i)
     cost0, z0, info["start_used"] = best
+    info["path"] = (f"start {info['start_used']} ({labels[info['start_used']]}) of {len(starts)}, "
+                    "steps 0-2")
     z, _ = run(z0, 1.0 / np.abs(s), all_free, "1: all parameters, W = 1/s", **mid)
     keep = np.isin(model.names, ("R0", "omega0"))
     z, sol = run(z, np.ones(meas.n_points), ~keep, "2: R0, omega0 fixed, W = 1", **mid)
@@ -260,6 +272,7 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
             if alt.cost < sol.cost:
                 sol, info["final_start"] = alt, "step 0"
         z = sol.x
+        info["path"] += f", polish from {info['final_start']}"
         steps.append({"step": f"3: polish from {info['final_start']}, all parameters, relative residuals",
                       "nfev": int(sol.nfev), "cost": float(sol.cost), "status": int(sol.status),
                       "message": sol.message, "seconds": time.perf_counter() - t})

@@ -45,26 +45,31 @@ def test_noise_free_recovery_from_data_alone(name, rings, table):
 
 
 def _coverage(name, rings, table, seeds):
+    """Fractions of |fit − truth| within 1, 2 and 4 standard errors over seeds and parameters."""
     model, truth = truth_of(name, rings, table)
-    inside = []
+    t = []
     for seed in seeds:
         fit = fit_admittance(simulate(model, truth, noise=0.002, seed=seed), model)
         se = np.array([fit.stderr[n] for n in model.names])
-        inside.extend(np.abs(fit.theta - truth) <= 4 * se)
-    return np.mean(inside)
+        t.extend(np.abs(fit.theta - truth) / se)
+    t = np.array(t)
+    return {k: float(np.mean(t <= k)) for k in (1, 2, 4)}
 
 
 @pytest.mark.parametrize("name, rings, table", [c for c in CASES if c[0] in ("I", "II", "UD")])
 def test_standard_errors_are_honest_quick(name, rings, table):
     # a quick version of acceptance 2 (5 seeds); the full 20-seed run is marked slow
-    assert _coverage(name, rings, table, range(5)) >= 0.95
+    assert _coverage(name, rings, table, range(5))[4] >= 0.95
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name, rings, table", CASES)
 def test_standard_errors_are_honest_20_seeds(name, rings, table):
-    # acceptance 2: 0.2 % noise, 20 seeds: >= 95 % of parameters within 4 standard errors
-    assert _coverage(name, rings, table, range(20)) >= 0.95
+    # acceptance 2: 0.2 % noise (the simulator's relative complex Gaussian), 20 seeds: >= 95 % of
+    # parameters within 4 standard errors. Honest also means not inflated: a Gaussian puts 68 % within
+    # 1 and 95 % within 2 (measured 0.69-0.74 and 0.94-0.98 over the six models)
+    cov = _coverage(name, rings, table, range(20))
+    assert cov[4] >= 0.95 and cov[2] >= 0.85 and cov[1] <= 0.85, cov
 
 
 def test_fit_reports_and_serialises():
