@@ -103,7 +103,8 @@ def batched_least_squares(fun_batch, z0, lo, hi, *, max_nfev: int, tol: float = 
             return forward_jacobian(fun_batch, z)
     else:
         raise ValueError(f"jacobian must be 'central' or 'forward', got {jacobian!r}")
-    z0 = np.clip(z0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)  # unbounded (normal/lognormal) priors: inf - inf
+    z0 = np.clip(z0, lo + 1e-9 * width, hi - 1e-9 * width)
     return optimize.least_squares(fun, z0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
                                   ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
 
