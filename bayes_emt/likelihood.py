@@ -1,20 +1,35 @@
-"""The likelihood of a measured admittance, vectorised over parameter sets.
+"""The likelihood of a measured admittance, vectorised over parameter sets (walkers).
 
-Noise model (what a metrologist specifies for an LCR meter or analyser): the real and imaginary
-parts of each ``Y_k`` carry independent errors with standard deviation
+Noise model (what a metrologist states for an LCR meter or impedance analyser): the real and
+imaginary parts of each measured ``Y_k`` carry independent errors of standard deviation
 
-    σ_k = sqrt((σ_rel |Y_k|)² + (σ_floor · Ỹ)²)
+    σ_k = sqrt((σ_rel |Y_k|)² + σ_abs²) / w_k                                          [S]
 
-a *relative* part (the instrument's accuracy is stated relative to the reading) plus an absolute
-*floor* (noise, cabling), expressed relative to the median |Y| of the recording, ``Ỹ``, so its
-prior is dimensionless. ``|Y_k|`` is the *measured* magnitude: the noise scale is then a property
-of the measurement, not of the candidate parameters (with a model-dependent scale a poor model
-could buy likelihood by inflating |Y|); at 0.2 % noise the difference from the true |Y| is
-second order. Both scales are sampled, in log space, with proper log-uniform priors.
+a *relative* part ``σ_rel`` [1] (accuracy stated relative to the reading; the simulator's
+``Y (1 + σ (e_r + j e_i))`` is exactly this with ``σ_abs = 0``) and an absolute floor ``σ_abs``
+[S] (noise, cabling, quantisation). ``w_k`` are the measurement's optional per-point weights
+(1 when absent), the same weights the least-squares fit applies to its residuals.
 
-``gaussian``: ``log p_k = −log(2π σ_k²) − |r_k|²/(2σ_k²)``; ``student``: each part Student-t with
-``ν`` degrees of freedom (default 4) and scale ``σ_k``, for recordings with outliers.
-The pointwise ``log p_k`` per frequency feeds LOO and the discrepancy analysis.
+``|Y_k|`` is the **measured** magnitude, not the model's. The noise is a property of the
+instrument reading, so it must not depend on the candidate parameters: with a model-dependent
+scale, a poor parameter set could buy likelihood by predicting a larger |Y| (wider errors), and
+the normalising term ``log σ_k`` would then pull the estimate towards larger admittance. At the
+0.2 % noise of the paper the measured and true |Y| differ by 0.3 % of σ, a second-order effect;
+the calibration script confirms the intervals cover as stated.
+
+Both noise scales are sampled, in log space, with proper log-uniform priors
+(:data:`NOISE_PARAMS`), identical for every model so evidences stay comparable.
+
+Kinds
+-----
+``gaussian``: ``log p_k = −log(2π σ_k²) − |r_k|²/(2σ_k²)`` with ``r_k = Y_model − Y_k``;
+``student``: the real and imaginary parts are independent Student-t with ``ν`` degrees of freedom
+and scale ``σ_k`` (robust to outliers); ``ν`` fixed, or sampled (``nu=None``) with the prior of
+:data:`NU_SPEC`.
+
+The pointwise ``log p_k`` (one value per frequency) feeds PSIS-LOO and the discrepancy analysis;
+:meth:`Likelihood.normalised_residuals` gives ``r_k/σ_k`` for whiteness tests. Every function
+is NaN-free: ``-inf`` outside the prior support or wherever the model cannot be evaluated.
 """
 
 from __future__ import annotations
@@ -30,81 +45,167 @@ from .data import Measurement
 from .models import Model
 from .params import LogUniform, ParamSet, ParamSpec
 
-__all__ = ["NOISE_PARAMS", "Likelihood"]
+__all__ = ["NOISE_PARAMS", "NU_SPEC", "Likelihood", "LikelihoodKind", "noise_param_set"]
+
+LikelihoodKind = Literal["gaussian", "student"]
 
 #: Noise parameters appended to every model's parameter vector (identical across models).
 NOISE_PARAMS = ParamSet([
     ParamSpec("sigma_rel", "1", r"$\sigma_\mathrm{rel}$", LogUniform(1e-6, 1.0),
-              "relative noise std of the real and imaginary parts"),
-    ParamSpec("sigma_floor", "1", r"$\sigma_\mathrm{floor}$", LogUniform(1e-7, 1.0),
-              "absolute noise floor, relative to the median |Y| of the recording"),
+              "relative noise std of the real and imaginary parts (fraction of |Y|)"),
+    ParamSpec("sigma_abs", "S", r"$\sigma_\mathrm{abs}$", LogUniform(1e-12, 1e2),
+              "absolute noise floor: std of the real and imaginary parts"),
 ])
 
+#: Student-t degrees of freedom, when sampled: log-uniform from Cauchy-like (1) to Gaussian-like (100).
+NU_SPEC = ParamSpec("nu", "1", r"$\nu$", LogUniform(1.0, 100.0), "Student-t degrees of freedom")
 
-@dataclass(frozen=True)
+
+def noise_param_set(kind: LikelihoodKind = "gaussian", nu: float | None = 4.0) -> ParamSet:
+    """The default noise parameters of a likelihood: :data:`NOISE_PARAMS`, plus :data:`NU_SPEC`
+    for a Student-t likelihood whose ``nu`` is sampled (``nu=None``)."""
+    return NOISE_PARAMS + ParamSet([NU_SPEC]) if kind == "student" and nu is None else NOISE_PARAMS
+
+
+@dataclass(frozen=True, eq=False)
 class Likelihood:
     """``log p(Y | θ)`` for one measurement and one model.
 
-    ``params`` is the model's ParamSet followed by :data:`NOISE_PARAMS`; every method takes
-    physical values of shape ``(..., k)``.
+    Parameters
+    ----------
+    model : the transducer model (its ``params`` carry the priors).
+    meas : the measurement.
+    kind : ``"gaussian"`` or ``"student"``.
+    nu : Student-t degrees of freedom; ``None`` samples it (prior :data:`NU_SPEC`).
+    noise_params : the noise ParamSet (default :func:`noise_param_set`; to change a prior pass
+        ``noise_param_set(kind, nu).with_priors(...)``, see :mod:`bayes_emt.priors`).
+
+    Attributes
+    ----------
+    params : ``model.params + noise_params``: the sampled vector, noise scales (and ``nu``) last.
+        Every method takes *physical* values of shape ``(..., k)`` with ``k = len(params)``, except
+        the ``*_z`` methods, which take sampling-space values.
     """
 
     model: Model
     meas: Measurement
-    kind: Literal["gaussian", "student"] = "gaussian"
-    nu: float = 4.0
+    kind: LikelihoodKind = "gaussian"
+    nu: float | None = 4.0
+    noise_params: ParamSet | None = None
 
     def __post_init__(self):
         if self.kind not in ("gaussian", "student"):
             raise ValueError(f"unknown likelihood {self.kind!r}; choose gaussian or student")
-        if not self.nu > 0:
-            raise ValueError(f"Student-t degrees of freedom must be positive, got {self.nu}")
-        object.__setattr__(self, "params", self.model.params + NOISE_PARAMS)
+        if self.kind == "student" and self.nu is not None and not (self.nu > 0 and math.isfinite(self.nu)):
+            raise ValueError(f"Student-t degrees of freedom must be a positive number, got {self.nu}")
+        default = noise_param_set(self.kind, self.nu)
+        if self.noise_params is None:
+            object.__setattr__(self, "noise_params", default)
+        elif self.noise_params.names != default.names:
+            raise ValueError(f"noise parameters must be {list(default.names)}, "
+                             f"got {list(self.noise_params.names)}")
+        object.__setattr__(self, "params", self.model.params + self.noise_params)
+        w = np.ones(self.meas.n_points) if self.meas.weights is None else self.meas.weights
         object.__setattr__(self, "_absY", np.abs(self.meas.Y))
-        object.__setattr__(self, "_scale", float(np.median(np.abs(self.meas.Y))))
+        object.__setattr__(self, "_w2", np.asarray(w, float) ** 2)
+
+    @property
+    def sample_nu(self) -> bool:
+        """Whether ``nu`` is a sampled parameter (Student-t with ``nu=None``)."""
+        return self.kind == "student" and self.nu is None
 
     @property
     def ndim(self) -> int:
         return len(self.params)
 
+    @property
+    def n_points(self) -> int:
+        return self.meas.n_points
+
+    def describe(self) -> str:
+        """One line naming the noise model (for reports and file attributes)."""
+        if self.kind == "gaussian":
+            return "gaussian, sigma^2 = (sigma_rel |Y_meas|)^2 + sigma_abs^2 per part"
+        nu = "sampled" if self.sample_nu else f"{self.nu:g}"
+        return f"student-t (nu {nu}), scale^2 = (sigma_rel |Y_meas|)^2 + sigma_abs^2 per part"
+
+    # ---- pieces ----------------------------------------------------------------------------
     def split(self, theta):
+        """``(theta_model, sigma_rel, sigma_abs, nu)`` from physical values ``(..., k)``;
+        ``nu`` is an array when sampled, else the fixed float (or None for gaussian)."""
         theta = np.asarray(theta, float)
         k = self.model.ndim
-        return theta[..., :k], theta[..., k], theta[..., k + 1]
+        nu = theta[..., k + 2] if self.sample_nu else self.nu
+        return theta[..., :k], theta[..., k], theta[..., k + 1], nu
 
-    def sigma(self, sigma_rel, sigma_floor):
-        """Per-frequency std of each part [S], shape ``(..., F)``."""
+    def sigma(self, sigma_rel, sigma_abs):
+        """Per-frequency std (Student-t: scale) of each part [S], shape ``(..., F)``."""
         a = np.asarray(sigma_rel, float)[..., None] * self._absY
-        b = np.asarray(sigma_floor, float)[..., None] * self._scale
-        return np.sqrt(a * a + b * b)
+        b = np.asarray(sigma_abs, float)[..., None]
+        return np.sqrt((a * a + b * b) / self._w2)
 
-    def pointwise(self, theta) -> np.ndarray:
-        """Log-likelihood per frequency, shape ``(..., F)``; NaN-free (``-inf`` if not finite)."""
-        th, srel, sfl = self.split(theta)
+    def residuals(self, theta):
+        """Complex ``Y_model − Y_meas`` [S], shape ``(..., F)``."""
+        th = self.split(theta)[0]
         with np.errstate(all="ignore"):
-            r = self.model.admittance(self.meas.omega, th) - self.meas.Y
-            sig = self.sigma(srel, sfl)
+            return self.model.admittance(self.meas.omega, th) - self.meas.Y
+
+    def normalised_residuals(self, theta):
+        """Complex ``(Y_model − Y_meas)/σ_k`` (real and imaginary parts ~ N(0, 1) under the
+        Gaussian model), shape ``(..., F)``: the input of whiteness and discrepancy tests."""
+        _, srel, sabs, _ = self.split(theta)
+        with np.errstate(all="ignore"):
+            return self.residuals(theta) / self.sigma(srel, sabs)
+
+    # ---- densities ---------------------------------------------------------------------------
+    def pointwise(self, theta) -> np.ndarray:
+        """Log-likelihood per frequency [nats], shape ``(..., F)``; ``-inf`` where not finite."""
+        _, srel, sabs, nu = self.split(theta)
+        with np.errstate(all="ignore"):
+            r = self.residuals(theta)
+            sig = self.sigma(srel, sabs)
             if self.kind == "gaussian":
                 ll = -np.log(2 * math.pi * sig * sig) - (r.real**2 + r.imag**2) / (2 * sig * sig)
             else:
-                nu = self.nu
-                c = special.gammaln((nu + 1) / 2) - special.gammaln(nu / 2) - 0.5 * math.log(nu * math.pi)
+                nu = np.asarray(nu, float)[..., None] if self.sample_nu else float(nu)
+                c = special.gammaln((nu + 1) / 2) - special.gammaln(nu / 2) - 0.5 * np.log(nu * math.pi)
                 t2 = np.log1p((r.real / sig) ** 2 / nu) + np.log1p((r.imag / sig) ** 2 / nu)
                 ll = 2 * c - 2 * np.log(sig) - (nu + 1) / 2 * t2
         return np.where(np.isfinite(ll), ll, -np.inf)
 
     def __call__(self, theta) -> np.ndarray:
-        """Total log-likelihood, shape ``theta.shape[:-1]``."""
+        """Total log-likelihood [nats], shape ``theta.shape[:-1]`` (dynesty's ``loglike`` with
+        ``params.prior_transform`` as its ``prior_transform``)."""
         return np.sum(self.pointwise(theta), axis=-1)
 
-    def log_posterior_z(self, z) -> np.ndarray:
-        """Unnormalised log posterior in sampling space (prior incl. log-Jacobian + likelihood),
-        ``z`` of shape ``(W, k)`` → ``(W,)``; ``-inf`` outside the prior support, never NaN."""
+    def log_prob_z(self, z) -> tuple[np.ndarray, np.ndarray]:
+        """``(log posterior, log likelihood)`` at sampling-space points ``z`` of shape ``(W, k)``.
+
+        The log posterior is unnormalised and in sampling space (prior with its log-Jacobian, plus
+        likelihood); both are ``-inf`` outside the prior support, never NaN. The likelihood is
+        only evaluated where the prior is positive.
+        """
         z = np.atleast_2d(np.asarray(z, float))
         lp = self.params.log_prior_z(z)
-        out = np.full(z.shape[0], -np.inf)
+        post = np.full(z.shape[0], -np.inf)
+        ll = np.full(z.shape[0], -np.inf)
         ok = np.isfinite(lp)
         if np.any(ok):
-            ll = self(self.params.from_z(z[ok]))
-            out[ok] = np.where(np.isfinite(ll), lp[ok] + ll, -np.inf)
-        return out
+            ll[ok] = self(self.params.from_z(z[ok]))
+            post[ok] = np.where(np.isfinite(ll[ok]), lp[ok] + ll[ok], -np.inf)
+        return post, ll
+
+    def log_posterior_z(self, z) -> np.ndarray:
+        """Unnormalised log posterior in sampling space, ``(W, k)`` → ``(W,)``."""
+        return self.log_prob_z(z)[0]
+
+    def emcee_log_prob(self, z) -> list[tuple[float, float]]:
+        """emcee's ``log_prob_fn`` with ``vectorize=True`` and one blob (the total log-likelihood).
+
+        emcee 3.1.6 iterates over what a vectorised function returns and takes ``item[0]`` as the
+        walker's log probability and ``item[1:]`` as its blobs, so it needs one ``(lp, blob)``
+        pair per walker; returning ``(lp_array, blob_array)`` fails ("incompatible input
+        dimensions"; tests/test_likelihood.py checks both).
+        """
+        post, ll = self.log_prob_z(z)
+        return list(zip(post.tolist(), ll.tolist(), strict=True))

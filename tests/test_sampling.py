@@ -1,0 +1,221 @@
+"""emcee driver: moves (known answers), stopping rule, seeding, checkpoint/resume, budgets."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import emcee
+import h5py
+import numpy as np
+import pytest
+
+from bayes_emt import ConvergenceWarning, build_model, simulate
+from bayes_emt.cli import main
+from bayes_emt.io import write_measurement
+from bayes_emt.likelihood import Likelihood
+from bayes_emt.reference import PAPER_TABLES
+from bayes_emt.sampling import (
+    SamplerSettings,
+    SnookerMove,
+    default_moves,
+    initial_walkers,
+    sample_posterior,
+    stopping_rule,
+)
+
+OMEGA = np.geomspace(10, 1e5, 150)
+MODEL = build_model("I")
+
+
+@pytest.fixture(scope="module")
+def meas():
+    return simulate(MODEL, PAPER_TABLES["I"], OMEGA, noise=0.002, seed=3)
+
+
+@pytest.fixture(scope="module")
+def fit(meas):
+    from bayes_emt.fitting import fit_admittance
+
+    return fit_admittance(meas, MODEL)
+
+
+def _gaussian_run(moves, steps, seed=3):
+    rng = np.random.default_rng(1)
+    A = rng.standard_normal((7, 7))
+    C = A @ A.T + 0.1 * np.eye(7)
+    Ci = np.linalg.inv(C)
+    s = emcee.EnsembleSampler(28, 7, lambda x: -0.5 * np.einsum("ij,jk,ik->i", x, Ci, x), moves=moves,
+                              vectorize=True)
+    s._random.seed(seed)
+    s.run_mcmc(rng.multivariate_normal(np.zeros(7), C, size=28), steps)
+    return s.get_chain(discard=300, flat=True).std(axis=0) / np.sqrt(np.diag(C))
+
+
+def test_default_moves_sample_a_correlated_gaussian_exactly():
+    # known answer: marginal standard deviations of a correlated 7-D Gaussian, Monte Carlo error ~1 %
+    ratio = _gaussian_run(default_moves(), 8000)
+    assert np.all(np.abs(ratio - 1) < 0.03), ratio
+
+
+def test_corrected_snooker_alone_is_exact_and_emcees_is_not():
+    # why sampling.SnookerMove exists: emcee 3.1.6's DESnookerMove shrinks the target (~-17 %)
+    ours = _gaussian_run([SnookerMove()], 8000)
+    assert np.all(np.abs(ours - 1) < 0.05), ours
+    theirs = _gaussian_run([emcee.moves.DESnookerMove()], 3000)
+    assert np.mean(theirs) < 0.9, theirs
+
+
+def test_corrected_snooker_on_a_skewed_target():
+    # known answer: a linear map of independent log-normals (quantiles from 10^6 direct draws)
+    rng = np.random.default_rng(5)
+    A = rng.standard_normal((4, 4))
+    Ai = np.linalg.inv(A)
+
+    def logp(y):
+        x = y @ Ai.T
+        with np.errstate(all="ignore"):
+            lx = np.log(x)
+            v = np.sum(-0.5 * (lx / 0.6) ** 2 - lx, axis=1)
+        return np.where(np.all(x > 0, axis=1), v, -np.inf)
+
+    ref = np.exp(0.6 * rng.standard_normal((1_000_000, 4))) @ A.T
+    s = emcee.EnsembleSampler(32, 4, logp, moves=[(SnookerMove(), 1.0)], vectorize=True)
+    s._random.seed(2)
+    s.run_mcmc(np.exp(0.6 * rng.standard_normal((32, 4))) @ A.T, 8000)
+    ch = s.get_chain(discard=500, flat=True)
+    qs = [0.05, 0.5, 0.95]
+    err = np.abs(np.quantile(ch, qs, axis=0) - np.quantile(ref, qs, axis=0)) / ref.std(axis=0)
+    assert err.max() < 0.15, err
+
+
+def test_stopping_rule_is_a_pure_function_of_the_chain():
+    # AR(1) walkers with coefficient a have tau = (1 + a)/(1 - a) = 19 for a = 0.9
+    rng = np.random.default_rng(0)
+    n, w, a = 3000, 20, 0.9
+    x = np.zeros((n, w, 2))
+    for t in range(1, n):
+        x[t] = a * x[t - 1] + np.sqrt(1 - a * a) * rng.standard_normal((w, 2))
+    st = SamplerSettings(check_every=500, ess_target=1000)
+    v = stopping_rule(x, 3000, st)
+    assert 15 < v["tau_max"] < 25 and v["long_enough"] and v["converged"]
+    assert v == stopping_rule(np.concatenate([x, x]), 3000, st)  # later steps are not looked at
+    early = stopping_rule(x, 500, st)
+    assert not early["converged"] and not early["tau_stable"]  # no previous check to compare with
+    strict = stopping_rule(x, 3000, SamplerSettings(ess_target=1e6))
+    assert not strict["converged"] and not strict["ess_reached"]
+
+
+def test_initial_walkers_lie_inside_the_support(meas, fit):
+    lik = Likelihood(MODEL, meas)
+    z = initial_walkers(lik, fit, 40, np.random.default_rng(0))
+    assert z.shape == (40, 7) and np.all(np.isfinite(lik.log_posterior_z(z)))
+    assert np.linalg.matrix_rank(z - z.mean(axis=0)) == 7
+
+
+def test_same_seed_same_numbers_other_seed_other_numbers(meas, fit):
+    kw = dict(fit=fit, max_steps=200, settings=SamplerSettings(check_every=100))
+    with pytest.warns(ConvergenceWarning):
+        a = sample_posterior(meas, MODEL, seed=7, **kw)
+        b = sample_posterior(meas, MODEL, seed=7, **kw)
+        c = sample_posterior(meas, MODEL, seed=8, **kw)
+    np.testing.assert_array_equal(a.draws, b.draws)
+    assert not np.array_equal(a.draws, c.draws)
+
+
+def test_non_converging_run_says_so(meas, fit, tmp_path):
+    with pytest.warns(ConvergenceWarning, match="not converged within 200 steps"):
+        p = sample_posterior(meas, MODEL, fit=fit, seed=1, max_steps=200)
+    assert not p.converged and p.to_json_dict()["converged"] is False
+    data = tmp_path / "i.csv"
+    write_measurement(meas, data)
+    js = tmp_path / "s.json"
+    rc = main(["sample", str(data), "--model", "I", "--max-steps", "200", "--out", str(tmp_path / "r.nc"),
+               "--json", str(js), "--quiet"])
+    assert rc == 1
+    rec = json.loads(js.read_text())
+    assert rec["converged"] is False and rec["n_steps"] == 200 and "not converged" in rec["message"]
+    assert set(rec["parameters"]["R0"]) >= {"median", "q05", "q95", "ess", "tau"}
+
+
+def _iteration(path):
+    try:
+        with h5py.File(path, "r", locking=False) as f:
+            return int(f["mcmc"].attrs["iteration"])
+    except (OSError, KeyError):
+        return 0
+
+
+def test_interrupted_and_resumed_equals_uninterrupted(meas, fit, tmp_path):
+    # in-process: a run cut at 300 steps, then "killed" mid-block (stored iteration 237, emcee's
+    # random state left at step 300), resumed to 600 = an uninterrupted 600-step run, bit for bit
+    st = SamplerSettings(check_every=200, reseed_every=100, ess_target=1e9)
+    kw = dict(fit=fit, seed=4, settings=st)
+    with pytest.warns(ConvergenceWarning):
+        ref = sample_posterior(meas, MODEL, max_steps=600, checkpoint=tmp_path / "ref.h5", **kw)
+        sample_posterior(meas, MODEL, max_steps=300, checkpoint=tmp_path / "cut.h5", **kw)
+        with h5py.File(tmp_path / "cut.h5", "a") as f:
+            f["mcmc"].attrs["iteration"] = 237
+        res = sample_posterior(meas, MODEL, max_steps=600, checkpoint=tmp_path / "cut.h5", resume=True, **kw)
+    assert res.n_steps == ref.n_steps == 600
+    np.testing.assert_array_equal(res.draws, ref.draws)
+    with h5py.File(tmp_path / "ref.h5", "r") as a, h5py.File(tmp_path / "cut.h5", "r") as b:
+        np.testing.assert_array_equal(a["mcmc"]["chain"][:600], b["mcmc"]["chain"][:600])
+        np.testing.assert_array_equal(a["mcmc"]["blobs"][:600], b["mcmc"]["blobs"][:600])
+
+
+def test_sigkill_and_resume_loses_nothing(meas, tmp_path):
+    data = tmp_path / "i.csv"
+    write_measurement(meas, data)
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    base = [sys.executable, "-m", "bayes_emt.cli", "sample", str(data), "--model", "I", "--seed", "5",
+            "--max-steps", "800", "--quiet"]
+    ref = subprocess.run(base + ["--out", str(tmp_path / "ref.nc")], env=env, capture_output=True, text=True)
+    assert ref.returncode in (0, 1), ref.stderr
+    ck = tmp_path / "cut.h5"
+    proc = subprocess.Popen(base + ["--out", str(tmp_path / "cut.nc"), "--checkpoint", str(ck)], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    t0 = time.time()
+    while _iteration(ck) < 350 and time.time() - t0 < 120 and proc.poll() is None:
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    killed_at = _iteration(ck)
+    assert 0 < killed_at < 800, killed_at
+    res = subprocess.run(base + ["--out", str(tmp_path / "cut.nc"), "--checkpoint", str(ck), "--resume"],
+                         env=env, capture_output=True, text=True)
+    assert res.returncode == ref.returncode, res.stderr
+    with h5py.File(tmp_path / "ref.h5", "r") as a, h5py.File(ck, "r") as b:
+        na, nb = int(a["mcmc"].attrs["iteration"]), int(b["mcmc"].attrs["iteration"])
+        assert na == nb == 800
+        for key in ("chain", "log_prob", "blobs"):
+            np.testing.assert_array_equal(a["mcmc"][key][:na], b["mcmc"][key][:nb])
+    import arviz as az
+
+    pa, pb = az.from_netcdf(tmp_path / "ref.nc"), az.from_netcdf(tmp_path / "cut.nc")
+    np.testing.assert_array_equal(pa["posterior"]["R0"].values, pb["posterior"]["R0"].values)
+
+
+def test_resume_refuses_a_different_run_and_guards_checkpoints(meas, fit, tmp_path):
+    ck = tmp_path / "c.h5"
+    st = SamplerSettings(check_every=50, reseed_every=50)
+    with pytest.warns(ConvergenceWarning):
+        sample_posterior(meas, MODEL, fit=fit, seed=1, max_steps=50, checkpoint=ck, settings=st)
+    with pytest.raises(ValueError, match="cannot resume: different seed"):
+        sample_posterior(meas, MODEL, seed=2, max_steps=100, checkpoint=ck, resume=True, settings=st)
+    other = MODEL.with_priors({"R0": {"dist": "uniform", "lower": 1, "upper": 5}})
+    with pytest.raises(ValueError, match="cannot resume: different priors"):
+        sample_posterior(meas, other, seed=1, max_steps=100, checkpoint=ck, resume=True, settings=st)
+    shifted = simulate(MODEL, PAPER_TABLES["I"], OMEGA, noise=0.002, seed=4)
+    with pytest.raises(ValueError, match="cannot resume: different data"):
+        sample_posterior(shifted, MODEL, seed=1, max_steps=100, checkpoint=ck, resume=True, settings=st)
+    with pytest.raises(FileExistsError, match="--resume"):
+        sample_posterior(meas, MODEL, fit=fit, seed=1, max_steps=50, checkpoint=ck, settings=st)
+    with pytest.raises(FileNotFoundError, match="no checkpoint"):
+        sample_posterior(meas, MODEL, seed=1, checkpoint=tmp_path / "none.h5", resume=True)
+    junk = tmp_path / "junk.h5"
+    junk.write_bytes(b"not hdf5")
+    with pytest.raises(ValueError, match="not a bayes_emt sampler checkpoint"):
+        sample_posterior(meas, MODEL, seed=1, checkpoint=junk, resume=True)
