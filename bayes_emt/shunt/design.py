@@ -1,17 +1,29 @@
-"""H∞-optimal series RC shunt (SPEC §4): ``Zs = Rs + 1/(Cs s)`` minimising ``‖G_RC‖∞``.
+"""H∞-optimal series RC shunt (SPEC §4): ``Zs = Rs + 1/(Cs s)`` minimising ``‖G_RC‖∞`` of (50).
 
-Start: the fixed-point closed form of model I (Den Hartog type, ζ = 0): equal fixed-point heights
-give ``Cs = 2 / (2 L ω0² − φ̄²)`` (SPEC §4), with ``L`` the coil's effective inductance at ω0
-(``Im Zc(jω0)/ω0``; exactly ``L0`` for model I); Rs then minimises the peak at that Cs (1-D).
+**Closed form (start).** Model I with ζ = 0 and net loop resistance ``R = R0 + Rs``:
+``|m·G(jω)|² = (A² + R²ω²) / (B² + R²ω²(ω0² − ω²)²)`` with ``A = 1/Cs − L ω²``,
+``B = (ω0² − ω²) A − φ̄² ω²``. Two frequencies are independent of R (Den Hartog's fixed points),
+the roots in ``x = ω²`` of ``2(ω0² − x)(1/Cs − L x) = φ̄² x``, where ``|m·G| = 1/|ω0² − x|``. Equal
+heights (``x_P + x_Q = 2ω0²``) give ``Cs = 2/(2 L ω0² − φ̄²)`` (SPEC §4). A horizontal tangent at a
+fixed point needs ``R² = (φ̄²/(2D)) (φ̄² x/(2D) + 2 L D + φ̄²)`` with ``D = ω0² − x``; as Den Hartog,
+``R² = (R_P² + R_Q²)/2``, so ``Rs = R − R0``. For the other models the coil is replaced by its
+equivalent series inductance and resistance at ω0, ``L = Im Zc(jω0)/ω0`` (the low-frequency
+inductance while the eddy-current corners lie above ω0) and ``Rc = Re Zc(jω0)``: ``Rs = R − R0 − Rc``.
 
-Optimum: the min-max problem is non-smooth at the equal-peak point, so a derivative-free
-Nelder–Mead in ``(Rs, log Cs)`` on the log peak, with every point at or below the instability
-threshold in Rs rejected (+inf), is followed by the exact peak refinement at the result.
+**Optimum.** (1) Nelder–Mead in ``(Rs, log Cs)`` on the log of the grid peak (parabolic
+interpolation), any point at or below the stability threshold in Rs scoring +inf, from the closed
+form. (2) The min-max problem is non-smooth where two peaks are equal, so Nelder–Mead stalls
+slightly off the optimum there; it is polished as a smooth problem: with ``h_lo, h_hi`` the
+heights of the peaks below/above the anti-resonance between them, ``log Cs*(Rs)`` solves
+``h_lo = h_hi`` (Brent root) and ``h_lo(Rs, Cs*(Rs))`` is minimised over Rs (bounded Brent): the
+equal-peak optimum to ~1e-9 in the peak ratio. A single-peak optimum (smooth) is polished by
+Nelder–Mead on the refined peak. (3) The result is evaluated on the exact model.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -19,19 +31,44 @@ from scipy import optimize
 
 from ..models import Model
 from .receptance import Plant, rc_impedance
-from .stability import closed_loop_poles, instability_threshold, is_rational, wide_grid_impedance
+from .stability import assess_stability, instability_threshold, threshold_grid
 
-__all__ = ["ShuntDesign", "ShuntEvaluation", "closed_form_rc", "design_rc_shunt", "evaluate_rc_shunt"]
+__all__ = ["ShuntDesign", "ShuntEvaluation", "ShuntWarning", "closed_form_rc", "design_rc_shunt",
+           "evaluate_rc_shunt"]
+
+
+class ShuntWarning(UserWarning):
+    """A shunt design is computed but means little (e.g. the plant has no resonance to damp)."""
+
+
+def _json_value(v):
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, dict):
+        return {k: _json_value(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [_json_value(x) for x in v]
+    return v
 
 
 @dataclass(frozen=True)
 class ShuntEvaluation:
-    """An RC shunt ``(Rs [Ω], Cs [F])`` evaluated on one model/parameter vector.
+    """An RC shunt ``(Rs [Ω], Cs [F])`` evaluated on one model and parameter vector.
 
-    ``attenuation_db = 20 log10(‖G_RC‖∞ / ‖G_open‖∞)``; ``peak``/``peak_open`` are mass-normalised
-    H∞ norms [s²] at ``peak_omega``/``peak_open_omega`` [rad/s]; ``Rs_instability`` [Ω] the Rs
-    below which the loop is unstable; ``stability_margin = Rs − Rs_instability`` [Ω];
-    ``max_pole_real`` [1/s] the rightmost closed-loop pole (rational models only, else None).
+    Attributes
+    ----------
+    model : model label.
+    Rs, Cs : the shunt [Ω], [F].
+    attenuation_db : ``20 log10(‖G_RC‖∞/‖G_open‖∞)`` [dB]; +inf when the loop is unstable (the H∞
+        norm of an unstable system is infinite).
+    peak, peak_omega : ``‖m·G_RC‖∞`` on the imaginary axis [s²] (mass-normalised) and where [rad/s].
+    peak_open, peak_open_omega : the same with open terminals.
+    stable : all closed-loop poles in the open left half-plane (``stability_method`` says how).
+    Rs_instability : the Rs [Ω] below which this Cs gives an unstable loop (exact crossing condition).
+    stability_margin : ``Rs − Rs_instability`` [Ω]: how far Rs (or, equally, R0) may drift down.
+    max_pole_real : rightmost closed-loop pole's real part [1/s] (None for models without a Foster form).
+    min_damping_ratio : smallest ``−Re p/|p|`` over the closed-loop poles (None likewise).
+    stability_method : how ``stable`` was decided.
     """
 
     model: str
@@ -46,94 +83,227 @@ class ShuntEvaluation:
     Rs_instability: float
     stability_margin: float
     max_pole_real: float | None
+    min_damping_ratio: float | None
+    stability_method: str
 
     def to_json_dict(self) -> dict:
-        return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                for k, v in asdict(self).items()}
+        """Plain JSON types; non-finite numbers become null."""
+        return _json_value(asdict(self))
 
 
 @dataclass(frozen=True)
 class ShuntDesign(ShuntEvaluation):
-    """The optimal RC shunt for one model; ``closed_form`` holds the fixed-point start
-    ``{"Rs", "Cs", "attenuation_db"}`` and ``info`` the optimiser's record."""
+    """The H∞-optimal RC shunt for one model (all :class:`ShuntEvaluation` fields, plus):
+
+    Attributes
+    ----------
+    closed_form : the fixed-point start ``{"Rs", "Cs", "attenuation_db", "L_eq", "R_eq"}``
+        ([Ω], [F], [dB], equivalent coil inductance [H] and resistance [Ω] at ω0).
+    peaks : the local maxima of ``|m·G_RC|`` at the optimum, ``[(omega [rad/s], value [s²]), ...]``.
+    optimum : ``"equal peaks"`` or ``"single peak"``.
+    info : optimiser record (evaluations, method, whether the polish succeeded).
+    """
 
     closed_form: dict = field(default_factory=dict)
+    peaks: tuple = ()
+    optimum: str = ""
     info: dict = field(default_factory=dict)
 
 
-def _effective_inductance(plant: Plant) -> float:
-    zc = plant.ze(np.array([plant.omega0]), exact=True)[0] - plant.R0
-    return float(zc.imag / plant.omega0)
-
-
-def closed_form_rc(plant: Plant) -> tuple[float, float]:
-    """Fixed-point start ``(Rs [Ω], Cs [F])`` (see module docstring)."""
-    L = _effective_inductance(plant)
-    den = 2 * L * plant.omega0**2 - plant.phi**2
-    if den <= 0:
-        raise ValueError("the fixed-point closed form needs 2 L ω0² > φ̄² "
-                         f"(L = {L:.4g} H, ω0 = {plant.omega0:.4g} rad/s, φ̄ = {plant.phi:.4g})")
+def closed_form_rc(model: Model, theta) -> dict:
+    """Fixed-point (Den Hartog-type) RC shunt (module docstring): ``{"Rs" [Ω], "Cs" [F], "L_eq" [H],
+    "R_eq" [Ω]}``. Exact fixed-point design for model I with ζ = 0; a start otherwise."""
+    theta = np.asarray(theta, float)
+    _, omega0, phi = (float(v) for v in model.mechanics(theta))
+    R0 = float(theta[model.params.index("R0")])
+    zc = complex(model.electrical_impedance_s(np.array([1j * omega0]), theta)[0]) - R0
+    L, Rc = zc.imag / omega0, zc.real
+    den = 2 * L * omega0**2 - phi**2
+    if not den > 0:
+        raise ValueError(f"model {model.label}: the fixed-point closed form needs 2 L ω0² > φ̄² "
+                         f"(L = {L:.4g} H, ω0 = {omega0:.4g} rad/s, φ̄ = {phi:.4g})")
     Cs = 2.0 / den
-    grid = wide_grid_impedance(plant.model, plant.theta)
-    rs_crit = instability_threshold(plant.model, plant.theta, Cs, grid=grid, refine=False)
-    zc0 = plant.ze(np.array([plant.omega0]), exact=True)[0]
-    hi = -plant.R0 + 2.0 * abs(zc0)
-    lo = rs_crit + 1e-6 * max(1.0, abs(rs_crit)) if np.isfinite(rs_crit) else -plant.R0 - abs(zc0)
-    r = optimize.minimize_scalar(lambda rs: np.log(plant.rc_peak_fast(rs, Cs)), bounds=(lo, hi),
-                                 method="bounded", options={"xatol": 1e-9})
-    return float(r.x), Cs
+    root = math.sqrt(omega0**4 - omega0**2 / (Cs * L))
+    r2 = []
+    for x in (omega0**2 - root, omega0**2 + root):
+        D = omega0**2 - x
+        r2.append(phi**2 / (2 * D) * (phi**2 * x / (2 * D) + 2 * L * D + phi**2))
+    R = math.sqrt(abs(0.5 * (r2[0] + r2[1])))
+    return {"Rs": R - R0 - Rc, "Cs": Cs, "L_eq": L, "R_eq": Rc}
 
 
 def evaluate_rc_shunt(model: Model, theta, Rs: float, Cs: float, *, plant: Plant | None = None,
                       grid=None) -> ShuntEvaluation:
-    """Attenuation and stability of the RC shunt ``(Rs, Cs)`` on ``model`` at ``theta``."""
+    """Attenuation and stability of the RC shunt ``(Rs [Ω], Cs [F])`` on ``model`` at ``theta``
+    (cross-model evaluation: a design from one model evaluated on another)."""
+    theta = np.asarray(theta, float)
     plant = plant or Plant(model, theta)
     pk = plant.peak(lambda s: rc_impedance(s, Rs, Cs))
     op = plant.open_peak()
-    rs_crit = instability_threshold(model, theta, Cs, grid=grid)
-    stable = bool(Rs > rs_crit)
-    maxre = None
-    if is_rational(model):
-        maxre = float(np.max(closed_loop_poles(model, theta, Rs, Cs).real))
-    att = 20 * math.log10(pk.value / op.value) if stable else float("nan")
-    return ShuntEvaluation(model.label, float(Rs), float(Cs), att, pk.value, pk.omega, op.value,
-                           op.omega, stable, float(rs_crit), float(Rs - rs_crit), maxre)
+    rs_crit = float(instability_threshold(model, theta, Cs, grid=grid))
+    st = assess_stability(model, theta, Rs, Cs)
+    att = 20 * math.log10(pk.value / op.value) if st.stable else math.inf
+    return ShuntEvaluation(model.label, float(Rs), float(Cs), att, pk.value, pk.omega, op.value, op.omega,
+                           st.stable, rs_crit, float(Rs - rs_crit), st.max_pole_real, st.min_damping_ratio,
+                           st.method)
+
+
+def _equal_peak_polish(plant: Plant, rs0: float, lcs0: float, split: float, width: float):
+    """Minimise the common height of two balanced peaks (module docstring). Returns (Rs, log Cs, n)."""
+    count = [0]
+    cache = {"lcs": lcs0}
+
+    def balance(lcs, rs):
+        count[0] += 1
+        lo, hi = plant.band_peaks(rs, math.exp(lcs), split)
+        return math.log(lo.value) - math.log(hi.value)
+
+    def cs_star(rs):
+        c = cache["lcs"]
+        step = 0.01
+        f0 = balance(c, rs)
+        for _ in range(12):
+            c1 = c + (step if f0 > 0 else -step)  # larger Cs lowers the electrical tuning
+            f1 = balance(c1, rs)
+            if np.sign(f1) != np.sign(f0):
+                a, b = sorted((c, c1))
+                root = optimize.brentq(balance, a, b, args=(rs,), xtol=1e-14, rtol=1e-15)
+                cache["lcs"] = root
+                return root
+            c, f0, step = c1, f1, 2 * step
+        raise ArithmeticError("no balanced-peak capacitance found")
+
+    def height(rs):
+        lcs = cs_star(rs)
+        lo, hi = plant.band_peaks(rs, math.exp(lcs), split)
+        return math.log(max(lo.value, hi.value))
+
+    a, b = rs0 - width, rs0 + width
+    for _ in range(4):
+        r = optimize.minimize_scalar(height, bounds=(a, b), method="bounded", options={"xatol": 1e-11})
+        if min(r.x - a, b - r.x) > 1e-3 * width:
+            break
+        a, b = r.x - width, r.x + width  # optimum at an edge: recentre
+    return float(r.x), cs_star(float(r.x)), count[0]
+
+
+def _fallback_start(plant: Plant, model: Model, theta, L: float, grid) -> tuple[float, float]:
+    """Start when the closed form does not exist (φ̄² ≥ 2 L ω0²): the coil tuned to ω0 by Cs,
+    ``Cs = 1/(L ω0²)``, and the best Rs for it (bounded 1-D search above the stability threshold)."""
+    cs = 1.0 / (L * plant.omega0**2)
+    lo = float(instability_threshold(model, theta, cs, grid=grid, refine=False))
+    if not math.isfinite(lo):
+        lo = -plant.R0 - 1.0
+    hi = lo + 2.0 * plant.R0 + 1.0
+    r = optimize.minimize_scalar(lambda rs: math.log(plant.rc_peak_fast(rs, cs)),
+                                 bounds=(lo + 1e-9 * (1 + abs(lo)), hi), method="bounded")
+    return float(r.x), cs
+
+
+def _polish(plant: Plant, model: Model, theta, grid, rs, lcs, rnet, lcs_max, info):
+    """Polish a Nelder–Mead point: equal-peak solve where two peaks compete, else a smooth search."""
+    def admissible(rs, lcs):
+        return lcs <= lcs_max and rs > instability_threshold(model, theta, math.exp(lcs), grid=grid,
+                                                              refine=False)
+
+    def smooth(x):
+        if not admissible(x[0], x[1]):
+            return np.inf
+        return math.log(plant.peak(lambda s: rc_impedance(s, x[0], math.exp(x[1])), exact=False).value)
+
+    info["nfev_polish"] = 0
+    for _ in range(2):
+        zs = lambda s, rs=rs, lcs=lcs: rc_impedance(s, rs, math.exp(lcs))  # noqa: E731
+        top = sorted(sorted(plant.local_peaks(zs, exact=False), key=lambda p: -p.value)[:2],
+                     key=lambda p: p.omega)
+        if len(top) == 2 and min(top[0].value, top[1].value) > 0.9 * max(top[0].value, top[1].value):
+            inside = (plant.omega > top[0].omega) & (plant.omega < top[1].omega)
+            g = plant.grid_magnitude(zs)
+            split = float(plant.omega[inside][np.argmin(g[inside])]) if inside.any() else plant.omega0
+            try:
+                rs_p, lcs_p, n = _equal_peak_polish(plant, rs, lcs, split, width=0.02 * rnet + 1e-6)
+                info["nfev_polish"] += n
+                if admissible(rs_p, lcs_p):
+                    return rs_p, lcs_p
+                info["polish"] = "equal-peak optimum inadmissible (unstable or Cs above its bound)"
+            except (ArithmeticError, ValueError) as exc:
+                info["polish"] = f"equal-peak polish failed ({exc})"
+        r2 = optimize.minimize(smooth, [rs, lcs], method="Nelder-Mead",
+                               options={"xatol": 1e-10, "fatol": 1e-14, "maxfev": 2000})
+        info["nfev_polish"] += int(r2.nfev)
+        if r2.fun <= smooth([rs, lcs]):
+            rs, lcs = float(r2.x[0]), float(r2.x[1])
+    return rs, lcs
 
 
 def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = None) -> ShuntDesign:
-    """The H∞-optimal RC shunt for ``model`` at ``theta`` (SPEC §4, eq. 50).
+    """The H∞-optimal RC shunt for ``model`` at ``theta`` (SPEC §4, eq. 50; module docstring).
+
+    Cs is bounded above by ``Cs_max = 1e3/(L ω0²)`` (capacitive reactance at ω0 below 1e-3 of the
+    coil's; the electrical resonance above ω0/32, inside the :class:`Plant` grid): a strongly
+    coupled plant (``φ̄² ≥ 2 L ω0²``, no closed form) may be best damped by a pure negative
+    resistance, and then the optimum sits at that bound (``optimum`` says so). A plant without a
+    resonance (``ζ ≥ 1/√2``) gets a :class:`ShuntWarning`.
 
     Parameters
     ----------
-    model, theta : transducer model and physical parameter vector.
-    start : optional ``(Rs, Cs)`` start; default the fixed-point closed form.
+    model : transducer model (any; the closed-form start uses its equivalent L and R at ω0).
+    theta : physical parameter vector ``(k,)``.
+    start : optional ``(Rs [Ω], Cs [F])`` start; default the fixed-point closed form.
+
+    Returns
+    -------
+    ShuntDesign
     """
     theta = np.asarray(theta, float)
     plant = Plant(model, theta)
-    grid = wide_grid_impedance(model, theta)
-    cf = closed_form_rc(plant)
-    rs0, cs0 = start or cf
+    if plant.zeta >= 1 / math.sqrt(2):
+        warnings.warn(f"model {model.label}: ζ = {plant.zeta:.3g} ≥ 1/√2, the open-terminal receptance has "
+                      "no resonant peak; there is nothing for a shunt to damp", ShuntWarning, stacklevel=2)
+    grid = threshold_grid(model, theta)
+    zc = complex(plant.ze(np.array([plant.omega0]))[0]) - plant.R0
+    L_eq = max(zc.imag / plant.omega0, 1e-300)
+    lcs_max = math.log(1e3 / (L_eq * plant.omega0**2))
+    try:
+        cf = closed_form_rc(model, theta)
+    except ValueError as exc:
+        cf = {"Rs": math.nan, "Cs": math.nan, "L_eq": L_eq, "R_eq": zc.real, "note": str(exc)}
+    if start is not None:
+        rs0, cs0 = (float(v) for v in start)
+    elif math.isfinite(cf["Cs"]):
+        rs0, cs0 = cf["Rs"], cf["Cs"]
+    else:
+        rs0, cs0 = _fallback_start(plant, model, theta, L_eq, grid)
+    nfev = [0]
 
     def objective(x):
         rs, lcs = x
-        cs = math.exp(lcs)
-        if rs <= instability_threshold(model, theta, cs, grid=grid, refine=False):
+        nfev[0] += 1
+        if lcs > lcs_max or rs <= instability_threshold(model, theta, math.exp(lcs), grid=grid, refine=False):
             return np.inf
-        return math.log(plant.rc_peak_fast(rs, cs))
+        return math.log(plant.rc_peak_fast(rs, math.exp(lcs)))
 
-    x0 = np.array([rs0, math.log(cs0)])
-    simplex = np.array([x0, x0 + [0.02 * abs(plant.R0), 0.0], x0 + [0.0, 0.05]])
+    rnet = abs(plant.R0 + rs0 + zc.real) + 1e-3 * plant.R0
+    x0 = np.array([rs0, min(math.log(cs0), lcs_max)])
+    simplex = np.array([x0, x0 + [0.3 * rnet, 0.0], x0 + [0.0, -0.05]])
     res = optimize.minimize(objective, x0, method="Nelder-Mead",
-                            options={"initial_simplex": simplex, "xatol": 1e-9, "fatol": 1e-13,
-                                     "maxiter": 4000, "maxfev": 8000})
-    # restart once from the result: Nelder–Mead can stall on the non-smooth ridge
-    res2 = optimize.minimize(objective, res.x, method="Nelder-Mead",
-                             options={"xatol": 1e-10, "fatol": 1e-14, "maxiter": 4000, "maxfev": 8000})
-    best = res2 if res2.fun <= res.fun else res
-    Rs, Cs = float(best.x[0]), float(math.exp(best.x[1]))
-    ev = evaluate_rc_shunt(model, theta, Rs, Cs, plant=plant, grid=grid)
-    cf_ev = evaluate_rc_shunt(model, theta, *cf, plant=plant, grid=grid)
-    return ShuntDesign(**asdict(ev),
-                       closed_form={"Rs": cf[0], "Cs": cf[1], "attenuation_db": cf_ev.attenuation_db},
-                       info={"nfev": int(res.nfev + res2.nfev), "method": "Nelder-Mead (Rs, log Cs)",
-                             "start": {"Rs": rs0, "Cs": cs0}})
+                            options={"initial_simplex": simplex, "xatol": 1e-7, "fatol": 1e-10,
+                                     "maxiter": 2000, "maxfev": 4000})
+    info = {"method": "Nelder-Mead (Rs, log Cs) on the grid peak, then polish", "nfev_nelder_mead": nfev[0],
+            "start": {"Rs": rs0, "Cs": cs0}}
+    rs, lcs = _polish(plant, model, theta, grid, float(res.x[0]), float(res.x[1]), rnet, lcs_max, info)
+    Cs = math.exp(lcs)
+    ev = evaluate_rc_shunt(model, theta, rs, Cs, plant=plant, grid=grid)
+    final = plant.local_peaks(lambda s: rc_impedance(s, rs, Cs))
+    hs = sorted((p.value for p in final), reverse=True)
+    if lcs > lcs_max - 1e-3:
+        optimum = "Cs at its upper bound (a pure negative resistance does as well)"
+    elif len(hs) > 1 and hs[1] > hs[0] * (1 - 1e-6):
+        optimum = "equal peaks"
+    else:
+        optimum = "single peak"
+    cf_att = math.nan
+    if math.isfinite(cf["Cs"]):
+        cf_att = evaluate_rc_shunt(model, theta, cf["Rs"], cf["Cs"], plant=plant, grid=grid).attenuation_db
+    return ShuntDesign(**asdict(ev), closed_form={**cf, "attenuation_db": cf_att},
+                       peaks=tuple((p.omega, p.value) for p in final), optimum=optimum, info=info)

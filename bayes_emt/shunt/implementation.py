@@ -9,14 +9,16 @@ What the discretised controller achieves is evaluated two ways:
 
 * **attenuation**: the equivalent shunt impedance seen at ``jω``,
   ``R_in + R_in K_in K_out K_d(e^{jωT}) e^{−jωT d} (1 − e^{−jωT})/(jωT)`` (zero-order hold and an
-  optional computation delay of ``d`` samples), in the receptance (50);
+  optional computation delay of ``d`` samples), in the receptance (50). This is the fundamental
+  component of the sampled-data response; the aliased images at ``ω ± k·2π fs`` are neglected
+  (the plant admittance there is ~1e-3 of its in-band value at the paper's 5 kHz);
 * **stability**: the exact sampled-data loop. With the shunt closing the terminals,
   ``i = −P(s) v_out`` where ``P = 1/(Z + R_in)`` is the plant admittance seen by the amplifier;
   ``P`` is discretised with a zero-order hold and the loop
   ``1 + R_in K_in K_out z^−d K_d(z) P_d(z) = 0`` must have its roots inside the unit circle.
-  Rational models are used as they are; for the Bessel models (III, UD) the plant is replaced
-  by its uniform-ring rational approximation UL(80) (max relative error ≈ 1 % over
-  10–1e5 rad/s at the paper's values, SPEC §2), which is said in the result.
+  The plant is the Foster realisation (:mod:`bayes_emt.shunt.foster`): exact for I, II, NL, UL;
+  for III/UD 40 eddy-current modes plus a lumped tail, ``|ΔZe(s)| ≤ E |s|²`` (E ≈ 3e-14 Ω s² at
+  Table 3's values: < 1e-6 Ω below 5 kHz), which the result names.
 """
 
 from __future__ import annotations
@@ -27,18 +29,16 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy import signal
 
-from ..models import Model, build_model
-from ..models.rational import foster_form
+from ..models import Model
+from .foster import foster_realisation
 from .receptance import Plant
-from .stability import is_rational
 
-__all__ = ["Realisation", "controller_tf", "realise_rc_shunt"]
-
-UL_APPROX_RINGS = 80
+__all__ = ["Realisation", "controller_tf", "realise_rc_shunt", "plant_state_space"]
 
 
 def controller_tf(Rs: float, Cs: float, R_in: float, K_in: float, K_out: float):
-    """Continuous ``K(s)`` of (56) as ``(b, a)``, highest power first."""
+    """Continuous controller of (56), ``K(s) = (Rs − R_in + 1/(Cs s)) / (R_in K_in K_out)``
+    [dimensionless V/V], as ``(b, a)`` in powers of ``s``, highest first."""
     g = R_in * K_in * K_out
     return np.array([(Rs - R_in) * Cs, 1.0]) / (g * Cs), np.array([1.0, 0.0])
 
@@ -47,10 +47,15 @@ def controller_tf(Rs: float, Cs: float, R_in: float, K_in: float, K_out: float):
 class Realisation:
     """A discretised RC shunt controller and what it achieves.
 
-    ``K_s``/``K_z``: continuous and discrete ``(b, a)`` coefficients (highest power first,
-    ``z`` in ``K_z``); ``attenuation_db`` with the discrete controller (``attenuation_ideal_db`` with
-    the ideal ``Zs``); ``stable`` and ``max_pole_abs`` (largest closed-loop ``|z|``) of the
-    sampled-data loop; ``plant_used`` says which (approximate) plant the stability test used.
+    Attributes
+    ----------
+    R_in [Ω], K_in, K_out, fs [Hz], delay_samples : the rig (Table 7) and computation delay.
+    K_s, K_z : continuous and discrete controller ``(b, a)`` (highest power first; ``K_z`` in ``z``,
+        i.e. ``K(z) = (b0 + b1 z⁻¹)/(a0 + a1 z⁻¹)``, without the delay ``z^−d``).
+    attenuation_db : with the discrete controller [dB] (+inf when the sampled-data loop is
+        unstable); attenuation_ideal_db : with the ideal continuous ``Zs``.
+    stable, max_pole_abs : the sampled-data loop, largest closed-loop ``|z|``.
+    plant_used : the plant realisation the stability test used.
     """
 
     R_in: float
@@ -67,31 +72,23 @@ class Realisation:
     plant_used: str
 
     def to_json_dict(self) -> dict:
-        d = asdict(self)
+        d = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+             for k, v in asdict(self).items()}
         d["K_s"] = {"b": [float(x) for x in self.K_s[0]], "a": [float(x) for x in self.K_s[1]]}
         d["K_z"] = {"b": [float(x) for x in self.K_z[0]], "a": [float(x) for x in self.K_z[1]]}
         return d
-
-
-def _rational_plant(model: Model, theta):
-    """``(model, theta, label)`` of a rational model equal or close to ``model``."""
-    if is_rational(model):
-        return model, np.asarray(theta, float), model.label
-    p = model.as_dict(theta)
-    ul = build_model("UL", rings=UL_APPROX_RINGS, n_turns=model.n_turns)
-    vals = {k: p[k] for k in ("zeta", "omega0", "phi", "R0", "alpha", "beta")}
-    vals["Lg"] = p.get("Lg", 0.0)
-    return ul, np.array([vals[n] for n in ul.names]), f"UL({UL_APPROX_RINGS}) approximation of {model.label}"
 
 
 def plant_state_space(model: Model, theta, R_in: float):
     """Continuous state space ``(A, B, C, D)`` from the amplifier voltage to the coil current,
     ``P(s) = 1/(Z(s) + R_in)``, built from the circuit: states ``x, v`` (mass-normalised
     displacement and velocity), the series current ``i`` and each parallel-RL section's inductor
-    current. A model without series inductance (II, or III's approximation) gets a tiny one
-    (1e-6 of its total inductance), which moves a pole far above any sampling rate used here."""
+    current (Foster realisation). A model without series inductance (II) gets a tiny one (1e-6 of
+    its total inductance): its pole lies far above any sampling rate used here, and the current
+    sampled just before the output updates is then the physical one."""
     zeta, omega0, phi = (float(v) for v in model.mechanics(theta))
-    R0, G, Lk, tau = foster_form(model, theta)
+    f = foster_realisation(model, theta)
+    R0, G, Lk, tau = f.R0, f.G, f.L, f.tau
     G = max(G, 1e-6 * (G + float(np.sum(Lk))))
     n = Lk.size
     Rk = Lk / tau
@@ -135,11 +132,18 @@ def _discrete_loop_poles(model, theta, R_in, K_in, K_out, bz, az, fs, delay):
 def realise_rc_shunt(model: Model, theta, Rs: float, Cs: float, *, R_in: float = 0.0996,
                      K_in: float = 99.23, K_out: float = 0.9846, fs: float = 5000.0,
                      delay_samples: int = 0) -> Realisation:
-    """Discretise the RC shunt controller and evaluate it (defaults: the paper's Table 7 rig)."""
+    """Discretise the RC shunt ``(Rs [Ω], Cs [F])`` by Tustin at ``fs`` [Hz] and evaluate what it
+    achieves on the continuous plant (module docstring; defaults: the paper's Table 7 rig at 5 kHz).
+
+    Raises
+    ------
+    ValueError
+        For non-positive rig values, a negative delay, or a model without a Foster form.
+    """
     for name, v in (("R_in", R_in), ("K_in", K_in), ("K_out", K_out), ("fs", fs)):
         if not (math.isfinite(v) and v > 0):
             raise ValueError(f"{name} must be positive, got {v!r}")
-    if delay_samples < 0:
+    if int(delay_samples) != delay_samples or delay_samples < 0:
         raise ValueError(f"delay must be >= 0 samples, got {delay_samples}")
     b, a = controller_tf(Rs, Cs, R_in, K_in, K_out)
     bz, az = signal.bilinear(b, a, fs)
@@ -157,9 +161,9 @@ def realise_rc_shunt(model: Model, theta, Rs: float, Cs: float, *, R_in: float =
     open_pk = plant.open_peak().value
     att = 20 * math.log10(plant.peak(zs_digital).value / open_pk)
     ideal = 20 * math.log10(plant.peak(lambda s: Rs + 1 / (Cs * s)).value / open_pk)
-    rmodel, rtheta, used = _rational_plant(model, theta)
-    poles = _discrete_loop_poles(rmodel, rtheta, R_in, K_in, K_out, bz, az, fs, delay_samples)
+    poles = _discrete_loop_poles(model, theta, R_in, K_in, K_out, bz, az, fs, delay_samples)
+    used = foster_realisation(model, theta).description
     maxabs = float(np.max(np.abs(poles)))
     stable = maxabs < 1.0
     return Realisation(R_in, K_in, K_out, fs, int(delay_samples), (b, a), (bz, az),
-                       att if stable else float("nan"), ideal, bool(stable), maxabs, used)
+                       att if stable else math.inf, ideal, bool(stable), maxabs, used)

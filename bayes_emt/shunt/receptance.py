@@ -1,13 +1,16 @@
 """Shunted receptance (eq. 50) and its H∞ norm.
 
-``G(s) = (1/m) / (s² + 2ζω0 s + ω0² + φ̄² s / (Zc(s) + R0 + Zs(s)))``. The mass ``m`` is not
-identifiable from the terminals; it cancels in the attenuation ratio, so everything here is the
-*mass-normalised* receptance ``m·G`` [s²] (units of 1/ω²).
+    G(s) = (1/m) / (s² + 2ζω0 s + ω0² + φ̄² s / (Zc(s) + R0 + Zs(s)))                    (50)
 
-A :class:`Plant` caches the blocked electrical impedance ``Ze = Zc + R0`` and the mechanical
-polynomial on a dense frequency grid around ω0, so a candidate shunt is evaluated with a few
-array operations; peaks are then refined off the grid against a cubic spline of ``Ze`` (smooth
-in log ω) and finally against the exact model.
+The mass ``m`` is not identifiable from the terminals and cancels in the attenuation ratio
+``‖G_RC‖∞/‖G_open‖∞``, so everything here is the *mass-normalised* receptance ``m·G`` [s²]
+(units of 1/ω²). Only the model's own methods are used (``electrical_impedance_s`` for ``Zc + R0``,
+``mechanics`` for ``(ζ, ω0, φ̄)``), so any model, including augmented ones, works.
+
+**H∞ norm.** ``|m·G(jω)|`` on a dense log grid around ω0 locates every local maximum; each is then
+refined by a bounded scalar (Brent) search in ``log ω`` on the exact model, to ~1e-12 relative in
+frequency and ~1e-14 in height. A :class:`Plant` caches ``Ze`` on the grid (and a cubic spline of it
+in ``log ω``, accurate to ~1e-12) so an optimiser can evaluate many shunts cheaply.
 """
 
 from __future__ import annotations
@@ -21,56 +24,96 @@ from scipy import interpolate, optimize
 from ..models import Model
 from ..models.terms import mechanical_polynomial
 
-__all__ = ["Plant", "rc_impedance", "peak"]
+__all__ = ["Plant", "Peak", "rc_impedance", "receptance", "open_peak", "rc_peaks"]
 
 
 def rc_impedance(s, Rs, Cs):
-    """Series RC shunt ``Zs = Rs + 1/(Cs s)`` [Ω]."""
+    """Series RC shunt ``Zs = Rs + 1/(Cs s)`` [Ω] (``Rs`` [Ω], ``Cs`` [F])."""
     return Rs + 1.0 / (Cs * s)
+
+
+def receptance(model: Model, theta, omega, Zs: Callable | None = None):
+    """Mass-normalised receptance ``m·G(jω)`` [s²] of (50), vectorised.
+
+    Parameters
+    ----------
+    model : transducer model. theta : ``(..., k)`` parameter vectors. omega : ``(F,)`` [rad/s].
+    Zs : shunt impedance ``Zs(s) -> (F,)`` or ``(..., F)`` [Ω]; None for open terminals.
+
+    Returns
+    -------
+    complex array ``(..., F)``.
+    """
+    theta = np.asarray(theta, float)
+    s = 1j * np.asarray(omega, float)
+    zeta, omega0, phi = (np.asarray(v)[..., None] for v in model.mechanics(theta))
+    mech = mechanical_polynomial(s, zeta, omega0)
+    if Zs is None:
+        return 1.0 / mech
+    return 1.0 / (mech + phi**2 * s / (model.electrical_impedance_s(s, theta) + Zs(s)))
+
+
+def open_peak(model: Model, theta):
+    """``(value [s²], omega [rad/s])`` of ``max |1/(s² + 2ζω0 s + ω0²)|``, closed form, vectorised:
+    ``1/(2ζ sqrt(1−ζ²) ω0²)`` at ``ω0 sqrt(1 − 2ζ²)`` for ``ζ < 1/√2`` (else ``1/ω0²`` at 0)."""
+    zeta, omega0, _ = (np.asarray(v, float) for v in model.mechanics(theta))
+    under = zeta < 1 / np.sqrt(2)
+    z = np.where(under, zeta, 0.5)
+    value = np.where(under, 1.0 / (2 * z * np.sqrt(1 - z * z) * omega0**2), 1.0 / omega0**2)
+    where = np.where(under, omega0 * np.sqrt(np.abs(1 - 2 * z * z)), 0.0)
+    return value, where
 
 
 @dataclass(frozen=True)
 class Peak:
-    """The H∞ norm of a receptance: ``value`` [s²] at ``omega`` [rad/s]."""
+    """One local maximum of ``|m·G(jω)|``: ``value`` [s²] at ``omega`` [rad/s]."""
 
     value: float
     omega: float
 
 
+def _local_max_indices(g):
+    i = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] >= g[2:])) + 1
+    ends = [j for j, k in ((0, 1), (g.size - 1, g.size - 2)) if g[j] > g[k]]
+    return np.r_[i, ends].astype(int)
+
+
 class Plant:
-    """One parameter vector of one model, prepared for shunt evaluation.
+    """One parameter vector of one model, prepared for evaluating many shunts.
 
     Parameters
     ----------
-    model, theta : the transducer model and its physical parameter vector.
-    span : the grid covers ``ω0/span .. ω0·span`` [rad/s] (the shunted peaks stay near ω0).
-    points : grid points (log-spaced).
+    model, theta : the transducer model and its physical parameter vector ``(k,)``.
+    span : the grid covers ``ω0/span .. ω0·span`` [rad/s] (the shunted peaks stay near ω0, and the
+        electrical resonance of any admissible design lies inside; a maximum at the edge triggers
+        a search on a 1000× wider grid).
+    points : log-spaced grid points.
     """
 
-    def __init__(self, model: Model, theta, *, span: float = 8.0, points: int = 1600):
+    def __init__(self, model: Model, theta, *, span: float = 40.0, points: int = 2600):
         self.model = model
         self.theta = np.asarray(theta, float)
+        if self.theta.ndim != 1:
+            raise ValueError(f"a Plant holds one parameter vector, got shape {self.theta.shape}")
         self.zeta, self.omega0, self.phi = (float(v) for v in model.mechanics(self.theta))
         self.R0 = float(self.theta[model.params.index("R0")])
         self.omega = np.geomspace(self.omega0 / span, self.omega0 * span, points)
         self.s = 1j * self.omega
         self.Ze = model.electrical_impedance_s(self.s, self.theta)
         self.mech = mechanical_polynomial(self.s, self.zeta, self.omega0)
-        lw = np.log(self.omega)
-        self._re = interpolate.CubicSpline(lw, self.Ze.real)
-        self._im = interpolate.CubicSpline(lw, self.Ze.imag)
+        self._lw = np.log(self.omega)
+        self._spline = interpolate.CubicSpline(self._lw, self.Ze)
 
     # ---- evaluation --------------------------------------------------------------------------
-    def ze(self, omega, exact: bool = False):
-        """Blocked impedance ``Zc + R0`` at ``omega`` [rad/s] (spline inside the grid, or exact)."""
+    def ze(self, omega, exact: bool = True):
+        """Blocked impedance ``Zc + R0`` [Ω] at ``omega`` [rad/s] (exact, or the cached spline)."""
         omega = np.asarray(omega, float)
         if exact or np.any(omega < self.omega[0]) or np.any(omega > self.omega[-1]):
             return self.model.electrical_impedance_s(1j * omega, self.theta)
-        lw = np.log(omega)
-        return self._re(lw) + 1j * self._im(lw)
+        return self._spline(np.log(omega))
 
     def receptance(self, omega, Zs: Callable | None = None, *, exact: bool = True):
-        """Mass-normalised receptance ``m·G(jω)`` [s²]; ``Zs(s)`` the shunt (None: open circuit)."""
+        """``m·G(jω)`` [s²] at ``omega`` [rad/s]; ``Zs(s)`` the shunt (None: open terminals)."""
         omega = np.asarray(omega, float)
         s = 1j * omega
         mech = mechanical_polynomial(s, self.zeta, self.omega0)
@@ -78,55 +121,118 @@ class Plant:
             return 1.0 / mech
         return 1.0 / (mech + self.phi**2 * s / (self.ze(omega, exact) + Zs(s)))
 
-    def _grid_receptance(self, Zs_grid):
-        return 1.0 / (self.mech + self.phi**2 * self.s / (self.Ze + Zs_grid))
+    def grid_magnitude(self, Zs: Callable):
+        """``|m·G|`` [s²] on the cached grid ``self.omega``."""
+        return np.abs(1.0 / (self.mech + self.phi**2 * self.s / (self.Ze + Zs(self.s))))
 
     def open_peak(self) -> Peak:
-        """H∞ norm of the open-circuit receptance ``1/(s² + 2ζω0 s + ω0²)`` (closed form)."""
-        z = self.zeta
-        if z < 1 / np.sqrt(2):
-            return Peak(1.0 / (2 * z * np.sqrt(1 - z * z) * self.omega0**2),
-                        self.omega0 * np.sqrt(1 - 2 * z * z))
-        return Peak(1.0 / self.omega0**2, 0.0)
+        """H∞ norm of the open-terminal receptance (closed form, :func:`open_peak`)."""
+        v, w = open_peak(self.model, self.theta)
+        return Peak(float(v), float(w))
 
     def rc_peak_fast(self, Rs: float, Cs: float) -> float:
-        """Peak of ``|m·G_RC|`` [s²] from the grid with parabolic interpolation (for optimisers)."""
-        g = np.abs(self._grid_receptance(rc_impedance(self.s, Rs, Cs)))
+        """Peak of ``|m·G_RC|`` [s²] from the grid with parabolic interpolation in ``log ω`` (for
+        optimisers; relative error ~1e-7)."""
+        g = self.grid_magnitude(lambda s: rc_impedance(s, Rs, Cs))
         i = int(np.argmax(g))
         if 0 < i < g.size - 1:
             y0, y1, y2 = np.log(g[i - 1 : i + 2])
             den = y0 - 2 * y1 + y2
             if den < 0:
-                d = 0.5 * (y0 - y2) / den
-                return float(np.exp(y1 - 0.25 * (y0 - y2) * d))
+                return float(np.exp(y1 - 0.125 * (y0 - y2) ** 2 / den))
         return float(g[i])
 
+    # ---- accurate peaks ------------------------------------------------------------------------
+    def _refine(self, Zs, i, lo, hi, exact) -> Peak:
+        """Maximise ``|m·G|`` over ``log ω ∈ [lo, hi]`` (around grid point ``i``)."""
+        c = self._lw[i]
+
+        def neg(u):
+            return -float(np.abs(self.receptance(np.array([np.exp(c + u)]), Zs, exact=exact))[0])
+
+        r = optimize.minimize_scalar(neg, bounds=(lo - c, hi - c), method="bounded",
+                                     options={"xatol": 1e-12})
+        return Peak(-float(r.fun), float(np.exp(c + r.x)))
+
+    def local_peaks(self, Zs: Callable, *, exact: bool = True, max_peaks: int = 4) -> list[Peak]:
+        """The ``max_peaks`` largest local maxima of ``|m·G(jω)|``, refined, sorted by frequency."""
+        g = self.grid_magnitude(Zs)
+        idx = _local_max_indices(g)
+        if idx.size and (idx[np.argmax(g[idx])] in (0, g.size - 1)):
+            return [self._wide_peak(Zs)]
+        out = []
+        for i in sorted(idx, key=lambda j: -g[j])[:max_peaks]:
+            lo, hi = self._lw[max(i - 1, 0)], self._lw[min(i + 1, g.size - 1)]
+            out.append(self._refine(Zs, i, lo, hi, exact))
+        return sorted(out, key=lambda p: p.omega)
+
+    def _wide_peak(self, Zs) -> Peak:
+        w = np.geomspace(self.omega0 / 8000, self.omega0 * 8000, 20000)
+        g = np.abs(self.receptance(w, Zs))
+        i = int(np.argmax(g))
+        lw = np.log(w)
+        c = lw[i]
+
+        def neg(u):
+            return -float(np.abs(self.receptance(np.array([np.exp(c + u)]), Zs))[0])
+
+        lo, hi = lw[max(i - 1, 0)] - c, lw[min(i + 1, w.size - 1)] - c
+        r = optimize.minimize_scalar(neg, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
+        return Peak(-float(r.fun), float(np.exp(c + r.x)))
+
     def peak(self, Zs: Callable | None, *, exact: bool = True) -> Peak:
-        """Accurate H∞ norm: every local maximum on the grid refined by a bounded scalar search
-        in log ω (relative accuracy ~1e-10), the largest returned."""
+        """Accurate H∞ norm of ``m·G`` (module docstring); ``Zs=None``: open terminals."""
         if Zs is None:
             return self.open_peak()
-        g = np.abs(self._grid_receptance(Zs(self.s)))
-        idx = [i for i in range(1, g.size - 1) if g[i] >= g[i - 1] and g[i] >= g[i + 1]]
-        if g[0] > g[1]:
-            idx.append(0)
-        if g[-1] > g[-2]:
-            idx.append(g.size - 1)
-        best = Peak(0.0, float("nan"))
-        lw = np.log(self.omega)
+        return max(self.local_peaks(Zs, exact=exact), key=lambda p: p.value)
 
-        def neg(x):
-            return -float(np.abs(self.receptance(np.array([np.exp(x)]), Zs, exact=exact))[0])
-
-        for i in sorted(idx, key=lambda j: -g[j])[:4]:
-            lo, hi = lw[max(i - 1, 0)], lw[min(i + 1, g.size - 1)]
-            r = optimize.minimize_scalar(neg, bounds=(lo, hi), method="bounded",
-                                         options={"xatol": 1e-12})
-            if -r.fun > best.value:
-                best = Peak(-float(r.fun), float(np.exp(r.x)))
-        return best
+    def band_peaks(self, Rs: float, Cs: float, split: float, *, exact: bool = False) -> tuple[Peak, Peak]:
+        """``sup |m·G_RC|`` below and above ``split`` [rad/s], refined: the two peak heights of the
+        equal-peak (min-max) formulation. Continuous in ``(Rs, Cs)``; their maximum is the H∞ norm
+        on the grid band."""
+        Zs = lambda s: rc_impedance(s, Rs, Cs)  # noqa: E731
+        g = self.grid_magnitude(Zs)
+        k = int(np.searchsorted(self.omega, split))
+        ls = np.log(split)
+        out = []
+        for sl, (a, b) in ((slice(0, k), (self._lw[0], ls)), (slice(k, g.size), (ls, self._lw[-1]))):
+            i = sl.start + int(np.argmax(g[sl]))
+            lo, hi = max(self._lw[max(i - 1, 0)], a), min(self._lw[min(i + 1, g.size - 1)], b)
+            out.append(self._refine(Zs, i, lo, hi, exact))
+        return out[0], out[1]
 
 
-def peak(model: Model, theta, Zs: Callable | None = None) -> Peak:
-    """H∞ norm of ``m·G`` for one model and parameter vector (``Zs=None``: open terminals)."""
-    return Plant(model, theta).peak(Zs)
+def rc_peaks(model: Model, thetas, Rs: float, Cs: float, *, refine: bool = True):
+    """``‖m·G_RC‖∞`` [s²] of one RC shunt on many parameter vectors ``thetas (..., k)``.
+
+    The grid evaluation is one vectorised model call per chunk of vectors; with ``refine`` each
+    vector's largest grid maximum is then refined on the exact model. Returns ``(...)``.
+    """
+    thetas = np.asarray(thetas, float)
+    flat = thetas.reshape(-1, thetas.shape[-1])
+    w0 = np.asarray(model.mechanics(flat)[1])
+    omega = np.geomspace(w0.min() / 8, w0.max() * 8, 1600)
+    out = np.empty(flat.shape[0])
+    Zs = lambda s: rc_impedance(s, Rs, Cs)  # noqa: E731
+    for a in range(0, flat.shape[0], 256):
+        chunk = flat[a : a + 256]
+        g = np.abs(receptance(model, chunk, omega, Zs))
+        lw = np.log(omega)
+        for j, t in enumerate(chunk):
+            idx = _local_max_indices(g[j])
+            top = sorted(idx, key=lambda i, gj=g[j]: -gj[i])[:2]  # equal-peak designs: refine both
+            if not refine:
+                out[a + j] = g[j, top[0]]
+            elif top[0] in (0, omega.size - 1):
+                out[a + j] = Plant(model, t).peak(Zs).value
+            else:
+                best = 0.0
+                for i in top:
+                    c = lw[i]
+                    r = optimize.minimize_scalar(
+                        lambda u, t=t, c=c: -float(np.abs(receptance(model, t, np.exp([c + u]), Zs))[0]),
+                        bounds=(lw[max(i - 1, 0)] - c, lw[min(i + 1, omega.size - 1)] - c),
+                        method="bounded", options={"xatol": 1e-12})
+                    best = max(best, -float(r.fun))
+                out[a + j] = best
+    return out.reshape(thetas.shape[:-1])

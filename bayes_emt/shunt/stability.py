@@ -1,85 +1,232 @@
-"""Closed-loop stability of a shunted transducer.
+"""Closed-loop stability of an RC-shunted transducer: threshold in Rs, poles, pole count.
 
-The shunted system's poles are the zeros of ``mech(s) · (Z(s) + Zs(s))`` where ``Z`` is the
-terminal impedance (coil, R0 and motional branch) and ``Zs`` the shunt (``G = (Ze+Zs)/(mech (Z+Zs))``).
+With the shunt ``Zs = Rs + 1/(Cs s)`` closing the terminals, the closed-loop poles are the zeros of
 
-**Threshold in Rs (any model, exact).** With ``Zs = Rs + 1/(Cs s)``, a pole sits on the imaginary
-axis at ``jω`` exactly when ``Z(jω) + Rs + 1/(jωCs) = 0``, i.e. where the loop reactance
-``X(ω) = Im Z(jω) − 1/(ωCs)`` vanishes and ``Rs = −Re Z(jω)``. For ``Rs → +∞`` the loop is open
-and stable (ζ > 0, passive coil), so as Rs decreases the first crossing — the largest of these
-``−Re Z(jω_c)`` — is where stability is lost: ``Rs_instability``. This needs no rational
-approximation, so it holds for the Bessel models (III, UD) as well.
+    H(s) = Cs s · [ mech(s) (Ze(s) + Zs(s)) + φ̄² s ] = mech(s) (Cs s (Ze(s) + Rs) + 1) + φ̄² Cs s²
 
-**Exact poles (rational models I, II, NL, UL).** The characteristic polynomial
-``mech·(N Cs s + D (Rs Cs s + 1)) + φ̄² Cs s² D = 0`` with ``Ze = N/D``; its roots give the pole
-margin ``max Re(p)`` [1/s] for cross-checks.
+(``mech = s² + 2ζω0 s + ω0²``, ``Ze = Zc + R0``): the denominator of (50) cleared of ``1/(Cs s)``.
+``H`` is analytic in the closed right half-plane for every model (a passive coil's ``Ze`` has its
+poles at ``Re s < 0``; the Bessel models' are on the negative real axis).
+
+**Threshold in Rs (any model).** A pole lies on the imaginary axis at ``jω`` exactly when the total
+loop impedance vanishes, ``Z(jω) + Rs + 1/(jω Cs) = 0`` with ``Z = Ze + φ̄² s/mech`` the terminal
+impedance: where the loop reactance ``X(ω) = Im Z(jω) − 1/(ω Cs)`` is zero and ``Rs = −Re Z(jω)``.
+A pole can also arrive from infinity, when ``Ze`` stays bounded (no series inductance: model II) and
+``Rs = −Ze(j∞)``. The loop is stable for ``Rs → +∞`` (passive coil, ζ > 0) and its poles move
+continuously with Rs, so coming down from +∞ stability is first lost at the largest of these
+values: ``Rs_instability`` [Ω]. No rational approximation is involved, so it is exact for the
+Bessel models too. (A pole that only touches the axis would make this conservative.)
+
+**Poles.** For the paper's six models, the eigenvalues of a descriptor realisation built from the
+Foster form (:mod:`bayes_emt.shunt.foster`; exact for I, II, NL, UL, within a stated bound for III,
+UD), states: mass-normalised displacement and velocity, capacitor voltage, series current and
+each section's inductor current. They give the margins ``max Re p`` [1/s] and the smallest damping
+ratio ``min(−Re p/|p|)``.
+
+**Pole count (any model).** The argument principle on the exact ``H(jω)``: with ``H ~ c sⁿ`` on the
+large semicircle, the number of right-half-plane zeros is ``n/2 − Δarg_{0→∞} H(jω)/π``; the phase is
+tracked on a log grid refined wherever it turns by more than π/4 between points.
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
-from numpy.polynomial import polynomial as P
-from scipy import optimize
+from scipy import linalg, optimize
 
 from ..models import Model
-from ..models.rational import rational_form
+from .foster import BESSEL_SECTIONS, foster_realisation, has_foster_form
 
-__all__ = ["instability_threshold", "closed_loop_poles", "is_rational", "wide_grid_impedance"]
-
-RATIONAL_MODELS = ("I", "II", "NL", "UL")
-
-
-def is_rational(model: Model) -> bool:
-    return model.name in RATIONAL_MODELS
+__all__ = ["instability_threshold", "threshold_grid", "closed_loop_poles", "count_unstable_poles",
+           "StabilityReport", "assess_stability", "characteristic_function"]
 
 
-def wide_grid_impedance(model: Model, theta, *, decades: float = 4.0, points: int = 16000):
-    """``(omega, Z(jω))`` on ``ω0·10^±decades`` [rad/s] (where loop reactance zeros are sought)."""
-    omega0 = float(model.mechanics(theta)[1])
-    omega = np.geomspace(omega0 * 10.0**-decades, omega0 * 10.0**decades, points)
+def _one(theta) -> np.ndarray:
+    theta = np.asarray(theta, float)
+    if theta.ndim != 1:
+        raise ValueError(f"expected one parameter vector, got shape {theta.shape}")
+    return theta
+
+
+def _mech(model: Model, theta):
+    return tuple(float(v) for v in model.mechanics(theta))
+
+
+def threshold_grid(model: Model, theta, *, decades=(5.0, 6.0), points: int = 4000):
+    """``(omega [rad/s], Z(jω) [Ω])``: terminal impedance on ``ω0·10^-5 .. ω0·10^6`` (log) plus a
+    dense patch over ``ω0 (1 ± (40ζ + 0.01))`` resolving the motional resonance, where loop-reactance
+    zeros are sought. Pass it to :func:`instability_threshold` to reuse it for many ``Cs``."""
+    theta = _one(theta)
+    zeta, omega0, _ = _mech(model, theta)
+    half = 40.0 * zeta + 0.01
+    omega = np.union1d(np.geomspace(omega0 * 10.0 ** -decades[0], omega0 * 10.0 ** decades[1], points),
+                       np.linspace(omega0 * (1 - min(half, 0.9)), omega0 * (1 + half), 1500))
     return omega, model.impedance_s(1j * omega, theta)
 
 
-def instability_threshold(model: Model, theta, Cs: float, *, grid=None, refine: bool = True) -> float:
-    """The Rs [Ω] below which the RC-shunted loop is unstable (exact crossing condition above).
+def _infinity_candidate(model: Model, theta, omega0: float) -> float:
+    """``−Ze(j∞)`` when the blocked impedance is bounded at high frequency, else −inf."""
+    if has_foster_form(model):
+        f = foster_realisation(model, theta)
+        return -(f.R0 + float(np.sum(f.R))) if f.G <= 0 else -np.inf
+    z = model.electrical_impedance_s(1j * omega0 * np.array([1e8, 1e10]), theta)
+    if abs(z[1] - z[0]) <= 1e-6 * abs(z[1]) and abs(z[1].imag) <= 1e-6 * abs(z[1]):
+        return -float(z[1].real)
+    return -np.inf
 
-    ``grid`` may pass a precomputed ``wide_grid_impedance`` result; ``refine`` polishes each
-    crossing frequency with Brent's method on the exact model (otherwise linear interpolation).
+
+def instability_threshold(model: Model, theta, Cs: float, *, grid=None, refine: bool = True):
+    """The Rs [Ω] below which the RC-shunted loop is unstable (module docstring).
+
+    Parameters
+    ----------
+    model : transducer model (any, including augmented ones).
+    theta : parameter vector ``(k,)`` or a stack ``(..., k)`` (looped; returns an array ``(...)``).
+    Cs : shunt capacitance [F].
+    grid : a :func:`threshold_grid` result for this ``theta`` (one vector only), to reuse.
+    refine : polish each candidate crossing with Brent's method on the exact model (else linear
+        interpolation on the grid, ~1e-6 Ω; what the optimiser uses).
     """
-    omega, Z = grid if grid is not None else wide_grid_impedance(model, theta)
+    theta = np.asarray(theta, float)
+    if theta.ndim > 1:
+        flat = theta.reshape(-1, theta.shape[-1])
+        out = [instability_threshold(model, t, Cs, refine=refine) for t in flat]
+        return np.array(out).reshape(theta.shape[:-1])
+    if not (Cs > 0 and math.isfinite(Cs)):
+        raise ValueError(f"Cs must be a positive capacitance [F], got {Cs!r}")
+    omega, Z = grid if grid is not None else threshold_grid(model, theta)
     X = Z.imag - 1.0 / (omega * Cs)
     idx = np.flatnonzero(np.sign(X[:-1]) != np.sign(X[1:]))
-    if idx.size == 0:
-        return -np.inf
-    theta = np.asarray(theta, float)
+    f = X[idx] / (X[idx] - X[idx + 1])
+    cand = -(Z[idx].real + f * (Z[idx + 1].real - Z[idx].real))
+    if refine and idx.size:
+        def x_exact(w):
+            return float(model.impedance_s(np.array([1j * w]), theta)[0].imag - 1.0 / (w * Cs))
 
-    def x_exact(w):
-        return float(model.impedance_s(np.array([1j * w]), theta)[0].imag - 1.0 / (w * Cs))
-
-    best = -np.inf
-    for i in idx:
-        if refine:
-            wc = optimize.brentq(x_exact, omega[i], omega[i + 1], xtol=1e-14 * omega[i], rtol=1e-14)
-            rs = -float(model.impedance_s(np.array([1j * wc]), theta)[0].real)
-        else:
-            f = X[i] / (X[i] - X[i + 1])
-            rs = -float(Z[i].real + f * (Z[i + 1].real - Z[i].real))
-        best = max(best, rs)
-    return best
+        # only the leading candidates can be the maximum
+        top = np.argsort(cand)[::-1][:3]
+        for j in top:
+            i = idx[j]
+            wc = optimize.brentq(x_exact, omega[i], omega[i + 1], xtol=1e-15 * omega[i], rtol=1e-15)
+            cand[j] = -float(model.impedance_s(np.array([1j * wc]), theta)[0].real)
+    best = float(np.max(cand)) if cand.size else -np.inf
+    return max(best, _infinity_candidate(model, theta, float(model.mechanics(theta)[1])))
 
 
-def closed_loop_poles(model: Model, theta, Rs: float, Cs: float) -> np.ndarray:
-    """Poles [1/s] of the RC-shunted system (rational models only)."""
-    if not is_rational(model):
-        raise ValueError(f"exact poles need a rational model ({', '.join(RATIONAL_MODELS)}); "
-                         f"{model.name} has a Bessel term: use instability_threshold")
-    zeta, omega0, phi = (float(v) for v in model.mechanics(theta))
-    num, den = rational_form(model, theta)
-    mech = np.array([omega0**2, 2 * zeta * omega0, 1.0])
-    loop = P.polyadd(P.polymul(num, [0.0, Cs]), P.polymul(den, [1.0, Rs * Cs]))
-    char = P.polyadd(P.polymul(mech, loop), P.polymul([0.0, 0.0, phi**2 * Cs], den))
-    # scale s to omega0 for conditioning: roots of c(omega0 x)
-    k = np.arange(char.size)
-    scaled = char * omega0**k
-    scaled = scaled / np.max(np.abs(scaled))
-    return P.polyroots(scaled) * omega0
+def characteristic_function(model: Model, theta, Rs: float, Cs: float, omega):
+    """``H(jω) = mech (Cs jω (Ze + Rs) + 1) − φ̄² Cs ω²`` (module docstring), ``omega`` [rad/s]."""
+    zeta, omega0, phi = _mech(model, theta)
+    s = 1j * np.asarray(omega, float)
+    mech = s * s + 2 * zeta * omega0 * s + omega0**2
+    ze = model.electrical_impedance_s(s, theta)
+    return mech * (Cs * s * (ze + Rs) + 1.0) + phi**2 * Cs * s * s
+
+
+def count_unstable_poles(model: Model, theta, Rs: float, Cs: float, *, max_points: int = 400_000) -> int:
+    """Closed-loop poles with ``Re p > 0`` by the argument principle on the exact model (any model).
+
+    Raises
+    ------
+    ArithmeticError
+        When a pole is (numerically) on the imaginary axis or the count does not come out an integer.
+    """
+    theta = _one(theta)
+    _, omega0, _ = _mech(model, theta)
+    w = np.union1d(np.geomspace(omega0 * 1e-6, omega0 * 1e10, 3200),
+                   np.linspace(0.3 * omega0, 3.0 * omega0, 800))
+    h = characteristic_function(model, theta, Rs, Cs, w)
+    for _ in range(80):
+        d = np.angle(h[1:] / h[:-1])
+        bad = np.flatnonzero(np.abs(d) > np.pi / 4)
+        if bad.size == 0:
+            break
+        if w.size + 8 * bad.size > max_points:
+            raise ArithmeticError(f"model {model.label}, Rs = {Rs:.6g}: a closed-loop pole is too close "
+                                  "to the imaginary axis to count (marginally stable)")
+        new = np.concatenate([np.geomspace(w[i], w[i + 1], 10)[1:-1] for i in bad])
+        w_all = np.concatenate([w, new])
+        h_all = np.concatenate([h, characteristic_function(model, theta, Rs, Cs, new)])
+        order = np.argsort(w_all)
+        w, h = w_all[order], h_all[order]
+    else:
+        raise ArithmeticError(f"model {model.label}: the phase of H(jω) could not be resolved")
+    darg = float(np.sum(np.angle(h[1:] / h[:-1]))) + float(np.angle(h[0] / omega0**2))
+    n = math.log(abs(h[-1]) / abs(h[-2])) / math.log(w[-1] / w[-2])
+    count = n / 2 - darg / np.pi
+    if abs(count - round(count)) > 0.1:
+        raise ArithmeticError(f"model {model.label}: argument-principle count {count:.3f} is not an integer "
+                              f"(high-frequency slope {n:.3f})")
+    return int(round(count))
+
+
+def closed_loop_poles(model: Model, theta, Rs: float, Cs: float, *, sections: int = BESSEL_SECTIONS):
+    """Closed-loop poles [1/s] of the RC-shunted system from the Foster realisation.
+
+    Exact for I, II, NL, UL; for III/UD from ``sections`` eddy-current modes (error bound in
+    :mod:`bayes_emt.shunt.foster`). Descriptor form ``E x' = A x`` with ``x = (x̄, v̄, v_C, i, j_1..j_n)``:
+    ``x̄' = v̄``; ``v̄' = −ω0² x̄ − 2ζω0 v̄ + φ̄ i``; ``Cs v_C' = i``;
+    ``G i' = −φ̄ v̄ − v_C − (R0 + Rs + ΣR_k) i + Σ R_k j_k``; ``L_k j_k' = R_k (i − j_k)``.
+    """
+    theta = _one(theta)
+    zeta, omega0, phi = _mech(model, theta)
+    f = foster_realisation(model, theta, sections=sections)
+    n = f.L.size
+    Rk = f.R
+    A = np.zeros((4 + n, 4 + n))
+    A[0, 1] = 1.0
+    A[1, :4] = [-(omega0**2), -2 * zeta * omega0, 0.0, phi]
+    A[2, 3] = 1.0
+    A[3, :4] = [0.0, -phi, -1.0, -(f.R0 + Rs + Rk.sum())]
+    A[3, 4:] = Rk
+    A[4:, 3] = Rk
+    A[4:, 4:] = np.diag(-Rk)
+    e = np.r_[1.0, 1.0, Cs, f.G, f.L]
+    if f.G > 0:
+        return np.linalg.eigvals(A / e[:, None])
+    p = linalg.eigvals(A, np.diag(e))
+    return p[np.isfinite(p)]
+
+
+@dataclass(frozen=True)
+class StabilityReport:
+    """Stability of one RC-shunted loop.
+
+    Attributes
+    ----------
+    stable : all closed-loop poles in the open left half-plane.
+    n_unstable : number of poles with ``Re p > 0``.
+    max_pole_real : ``max Re p`` [1/s] (None when the model has no Foster form).
+    min_damping_ratio : ``min(−Re p/|p|)`` over the poles (None likewise).
+    method : how ``stable`` was decided.
+    """
+
+    stable: bool
+    n_unstable: int
+    max_pole_real: float | None
+    min_damping_ratio: float | None
+    method: str
+
+
+def assess_stability(model: Model, theta, Rs: float, Cs: float) -> StabilityReport:
+    """Stable or not, and the pole margins (module docstring).
+
+    Exact-Foster models (I, II, NL, UL): decided by the eigenvalues. Bessel models (III, UD) and any
+    other model: decided by the argument principle on the exact impedance; III/UD also get
+    their margins from the Foster approximation's eigenvalues.
+    """
+    theta = _one(theta)
+    if has_foster_form(model):
+        p = closed_loop_poles(model, theta, Rs, Cs)
+        maxre = float(np.max(p.real))
+        damp = float(np.min(-p.real / np.abs(p)))
+        if foster_realisation(model, theta).exact:
+            n_un = int(np.count_nonzero(p.real > 0))
+            return StabilityReport(n_un == 0, n_un, maxre, damp, "eigenvalues of the exact realisation")
+        n_un = count_unstable_poles(model, theta, Rs, Cs)
+        return StabilityReport(n_un == 0, n_un, maxre, damp,
+                               "argument principle on the exact model; poles from "
+                               f"{BESSEL_SECTIONS} eddy-current modes")
+    n_un = count_unstable_poles(model, theta, Rs, Cs)
+    return StabilityReport(n_un == 0, n_un, None, None, "argument principle on the exact model")
