@@ -1,4 +1,9 @@
-"""``bayes-emt info DATA``: what a measurement file holds."""
+"""``bayes-emt info DATA``: what a measurement file holds.
+
+Reads the file as every other command does (so it is also the quickest check that a file reads,
+and under which units), then prints the point count, the frequency range in Hz and rad/s, the
+|Z| range in ohm and the mechanical resonance (:func:`bayes_emt.checks.locate_resonance`).
+"""
 
 from __future__ import annotations
 
@@ -21,8 +26,14 @@ def run(args) -> int:
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
                             quantity=args.quantity).select(args.omega_min, args.omega_max)
     m = meas.meta
-    print(f"file        {meas.source}  ({m.get('format')}; read as {m.get('quantity')}, "
-          f"frequency in {m.get('freq_unit')}, phase in {m.get('phase_unit') or 'n/a'})")
+    rep = {"magphase": "magnitude and phase", "reim": "real and imaginary parts",
+           "dbphase": "dB and phase"}.get(m.get("representation"), m.get("representation"))
+    units = "; ".join(f"{k.replace('_', ' ')} {m.get(k)} (from {v})"
+                      for k, v in m.get("units_from", {}).items())
+    print(f"file        {meas.source}  ({m.get('format')})")
+    print(f"read as     {m.get('quantity')}, {rep}" + (f"; {units}" if units else ""))
+    for note in m.get("notices", ()):
+        print(f"notice      {note}")
     print(f"points      {meas.n_points}")
     print(f"frequency   {meas.f_hz[0]:.5g} .. {meas.f_hz[-1]:.5g} Hz  "
           f"({meas.omega[0]:.5g} .. {meas.omega[-1]:.5g} rad/s)")

@@ -1,0 +1,147 @@
+"""Shared text handling for the readers: decoding, splitting, numeric rows and their checks.
+
+Every problem raises :class:`~bayes_emt.errors.DataFormatError` as ``path:line: what is wrong``
+(``path: what is wrong`` when no single line is to blame).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..data import Measurement
+from ..errors import DataFormatError
+
+__all__ = ["MIN_POINTS", "read_text", "split_cells", "detect_delimiter", "numeric_rows", "check_rows",
+           "finish"]
+
+MIN_POINTS = 3
+_DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+(?:[eE][-+]?\d+)?$")
+
+
+def read_text(path: Path) -> str:
+    """The file's text; raise for a missing, empty, folder or binary file."""
+    if not path.exists():
+        raise DataFormatError(f"{path}: no such file")
+    if path.is_dir():
+        raise DataFormatError(f"{path}: is a folder, not a measurement file")
+    raw = path.read_bytes()
+    if not raw.strip():
+        raise DataFormatError(f"{path}: empty file")
+    nul = raw.find(b"\x00", 0, 65536)
+    if nul >= 0:
+        line = raw[:nul].count(b"\n") + 1
+        raise DataFormatError(f"{path}:{line}: binary file (NUL bytes), "
+                              "not a text measurement export")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        # Latin-1 exports (a '°' or 'Ω' in the header) decode; a binary file has control bytes
+        text = raw.decode("latin-1")
+        ctrl = sum(ch < " " and ch not in "\t\r\n\f" for ch in text[:65536])
+        if ctrl > 8:
+            line = raw[:exc.start].count(b"\n") + 1
+            raise DataFormatError(f"{path}:{line}: binary file (undecodable bytes), "
+                                  "not a text measurement export") from None
+        return text
+
+
+def detect_delimiter(line: str) -> str | None:
+    """Tab, semicolon or comma (in that order), else ``None`` for runs of spaces."""
+    for d in ("\t", ";", ","):
+        if d in line:
+            return d
+    return None
+
+
+def split_cells(line: str, delim: str | None) -> list[str]:
+    """Cells of one line; a trailing delimiter adds no empty cell."""
+    if delim is None:
+        return line.split()
+    cells = [c.strip() for c in line.split(delim)]
+    if len(cells) > 1 and cells[-1] == "":
+        cells.pop()
+    return cells
+
+
+def uses_decimal_comma(line: str, delim: str | None) -> bool:
+    """True for ``10,5;3,2;45`` or tab/space-separated ``10,5 3,2``: commas are decimal marks."""
+    return delim != "," and "." not in line and any(
+        _DECIMAL_COMMA.match(c) for c in split_cells(line, delim))
+
+
+def is_numeric_line(line: str, delim: str | None, decimal_comma: bool = False) -> bool:
+    """True when every cell of ``line`` parses as a float (``nan`` and ``inf`` included)."""
+    cells = split_cells(line, delim)
+    try:
+        for c in cells:
+            float(c.replace(",", ".") if decimal_comma else c)
+    except ValueError:
+        return False
+    return bool(cells)
+
+
+def numeric_rows(lines: list[tuple[int, str]], delim: str | None, ncols: int, path: Path, *,
+                 decimal_comma: bool = False, what: str = "") -> np.ndarray:
+    """Parse ``(line number, text)`` pairs into an ``(n, ncols)`` float array, checking each cell.
+
+    ``what`` names the expected columns in the wrong-count message.
+    """
+    out = np.empty((len(lines), ncols))
+    for r, (lineno, text) in enumerate(lines):
+        cells = split_cells(text, delim)
+        if len(cells) != ncols:
+            raise DataFormatError(f"{path}:{lineno}: expected {ncols} columns, found {len(cells)}"
+                                  + (f" ({what})" if what else ""))
+        for c, cell in enumerate(cells):
+            try:
+                v = float(cell.replace(",", ".") if decimal_comma else cell)
+            except ValueError:
+                raise DataFormatError(f"{path}:{lineno}: not a number: {cell!r}") from None
+            if not math.isfinite(v):
+                raise DataFormatError(f"{path}:{lineno}: non-finite value {cell!r}")
+            out[r, c] = v
+    return out
+
+
+def check_rows(arr: np.ndarray, linenos: list[int], path: Path, *, magnitude_col: int | None) -> None:
+    """Point count, positive frequencies (column 0) and magnitudes, no duplicate frequencies."""
+    if arr.shape[0] < MIN_POINTS:
+        raise DataFormatError(f"{path}: only {arr.shape[0]} data points (need at least {MIN_POINTS})")
+    bad = np.flatnonzero(arr[:, 0] <= 0)
+    if bad.size:
+        raise DataFormatError(f"{path}:{linenos[bad[0]]}: non-positive frequency {arr[bad[0], 0]:g}")
+    if magnitude_col is not None:
+        bad = np.flatnonzero(arr[:, magnitude_col] <= 0)
+        if bad.size:
+            raise DataFormatError(f"{path}:{linenos[bad[0]]}: non-positive magnitude "
+                                  f"{arr[bad[0], magnitude_col]:g}")
+    seen: dict[float, int] = {}
+    for i, f in enumerate(arr[:, 0]):
+        if f in seen:
+            raise DataFormatError(f"{path}:{linenos[i]}: duplicate frequency {f:g} "
+                                  f"(also on line {linenos[seen[f]]})")
+        seen[f] = i
+
+
+def finish(omega: np.ndarray, Y: np.ndarray, linenos: list[int], path: Path, meta: dict,
+           notices: list[str], weights: np.ndarray | None = None) -> Measurement:
+    """The :class:`Measurement`, sorted by frequency with a warning (and a notice) when needed."""
+    bad = np.flatnonzero(~np.isfinite(Y) | (Y == 0))
+    if bad.size:
+        raise DataFormatError(f"{path}:{linenos[bad[0]]}: value maps to an infinite or zero "
+                              "impedance/admittance")
+    down = np.flatnonzero(np.diff(omega) < 0)
+    if down.size:
+        msg = (f"{path}:{linenos[down[0] + 1]}: frequencies are not in increasing order; "
+               "sorted them")
+        warnings.warn(msg, UserWarning, stacklevel=4)
+        notices.append(msg)
+        order = np.argsort(omega, kind="stable")
+        omega, Y = omega[order], Y[order]
+        weights = None if weights is None else weights[order]
+    return Measurement(omega, Y, weights=weights, meta={**meta, "notices": tuple(notices)})

@@ -1,0 +1,209 @@
+"""Text tables: ``.zma``, CSV/TSV exports with a header line, and the native CSV.
+
+Lines starting with ``*``, ``#`` or ``!`` are comments. The first other line is a header when it
+is not all numbers; failing that, a comment line just before the data that reads as a header
+(``* freq(Hz) |Z|(ohm) phase(deg)``) names the columns, with a notice. Units come from the header
+(:mod:`.header`), from the caller's options when the header does not say, or, for a ``.zma``
+file, from that format's convention (frequency Hz, |Z| Ω, phase degrees); the source of each is
+recorded in ``meta["units_from"]``. Anything still unknown raises, naming the option to pass: a
+file is never read under a guessed unit.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..data import Measurement
+from ..errors import DataFormatError
+from ._rows import (
+    check_rows,
+    detect_delimiter,
+    finish,
+    is_numeric_line,
+    numeric_rows,
+    split_cells,
+    uses_decimal_comma,
+)
+from .header import Layout, freq_scale, parse_header
+
+__all__ = ["read_table", "NATIVE_HEADER", "NATIVE_MARKER"]
+
+NATIVE_HEADER = "omega_rad_s,Y_real_S,Y_imag_S"
+NATIVE_MARKER = "bayes_emt measurement"
+ZMA_CONVENTION = {"freq_unit": "hz", "quantity": "Z", "phase_unit": "deg"}
+_NAMES = {"freq_unit": ("frequency unit", "freq-unit", "hz|rad/s"),
+          "phase_unit": ("phase unit", "phase-unit", "deg|rad"),
+          "quantity": ("quantity", "quantity", "Z|Y")}
+_SAYS = {"freq_unit": "whether frequencies are in Hz or rad/s",
+         "phase_unit": "whether the phase is in degrees or radians",
+         "quantity": "whether the values are impedance Z or admittance Y"}
+_LABEL = {"hz": "Hz", "khz": "kHz", "mhz": "MHz", "ghz": "GHz", "rad/s": "rad/s", "deg": "degrees",
+          "rad": "radians", "Z": "impedance Z", "Y": "admittance Y"}
+
+
+def _merge(lay: Layout, options: dict, *, where: str, is_zma: bool, notices: list[str]) -> Layout:
+    """Combine what the header says with the caller's options (and the .zma convention)."""
+    for attr, given in options.items():
+        if given is None:
+            continue
+        have = getattr(lay, attr)
+        if lay.units_from.get(attr) == "header" and have != given:
+            name, opt, _ = _NAMES[attr]
+            raise DataFormatError(f"{where} says the {name} is {_LABEL[have]}, but --{opt} {given} "
+                                  "was given")
+        if is_zma and given != ZMA_CONVENTION[attr] and attr not in lay.units_from:
+            notices.append(f"--{_NAMES[attr][1]} {given} overrides the .zma convention "
+                           f"({_LABEL[ZMA_CONVENTION[attr]]})")
+        lay.state(attr, given, lay.units_from.get(attr, "option"))
+    needed = ["freq_unit", "quantity"] + (["phase_unit"] if lay.rep == "magphase" else [])
+    if is_zma:
+        filled = [a for a in needed if getattr(lay, a) is None]
+        for a in filled:
+            lay.state(a, ZMA_CONVENTION[a], "zma convention")
+        if filled:
+            notices.append("read by the .zma convention: "
+                           + ", ".join(f"{_NAMES[a][0]} {_LABEL[ZMA_CONVENTION[a]]}" for a in filled))
+    missing = [a for a in needed if getattr(lay, a) is None]
+    if missing:
+        raise DataFormatError(f"{where} does not say " + "; nor ".join(
+            f"{_SAYS[a]}; pass --{_NAMES[a][1]} {_NAMES[a][2]}" for a in missing))
+    return lay
+
+
+def _written_meta(comments: list[str]) -> dict:
+    """The ``# meta: {...}`` (or ``* meta:``) line :func:`write_measurement` adds, if any."""
+    for c in comments:
+        if c[1:].lstrip().startswith("meta:"):
+            try:
+                m = json.loads(c[1:].lstrip()[len("meta:"):])
+            except json.JSONDecodeError:
+                return {}
+            if isinstance(m, dict):
+                m.pop("source", None)
+                m.pop("notices", None)
+                return {"written_meta": m}
+    return {}
+
+
+def _comment_header(comment: tuple[int, str], first_data: int, text: str,
+                    path: Path) -> tuple[int | None, str | None]:
+    """A comment line right before the data that reads as a header (``* Freq(Hz) Ohm Deg``)."""
+    lineno, line = comment
+    between = text.splitlines()[lineno:first_data - 1]
+    if any(ln.strip() for ln in between):
+        return None, None
+    cand = line.lstrip("*#! \t")
+    try:
+        parse_header(split_cells(cand, detect_delimiter(cand)), f"{path}:{lineno}")
+    except DataFormatError:
+        return None, None  # an ordinary comment
+    return lineno, cand
+
+
+def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measurement:
+    """Read a ``.zma`` or delimited text table; ``options`` holds normalised ``freq_unit``,
+    ``phase_unit`` and ``quantity`` (``None`` where not given)."""
+    comments, body, last_comment = [], [], None
+    for i, ln in enumerate(text.splitlines(), start=1):
+        s = ln.strip()
+        if not s:
+            continue
+        if s[0] in "*#!":
+            comments.append(s)
+            last_comment = (i, s)
+        else:
+            body.append((i, s))
+    if not body:
+        raise DataFormatError(f"{path}: no data lines (only a header or comments)")
+    header_line, header, notices = None, None, []
+    d0 = detect_delimiter(body[0][1])
+    if not is_numeric_line(body[0][1], d0, uses_decimal_comma(body[0][1], d0)):
+        header_line, header = body.pop(0)
+        if not body:
+            raise DataFormatError(f"{path}: no data lines (only a header)")
+    elif last_comment is not None and last_comment[0] < body[0][0]:
+        header_line, header = _comment_header(last_comment, body[0][0], text, path)
+        if header is not None:
+            notices.append(f"column names taken from comment line {header_line}")
+    delim = detect_delimiter(body[0][1])
+    decimal_comma = uses_decimal_comma(body[0][1], delim)
+    if decimal_comma:
+        notices.append("decimal commas read as decimal points")
+    if header is not None:
+        where = f"{path}:{header_line}: header {header!r}"
+        lay = parse_header(split_cells(header, detect_delimiter(header)), f"{path}:{header_line}")
+    else:
+        where = f"{path}: no header line"
+        lay = Layout(rep="magphase")
+        given = [a for a, v in options.items() if v is not None]
+        if not is_zma and len(given) < 3:
+            hint = " (if it is a .zma export, Hz/ohm/deg, name it .zma)" if any(
+                c.startswith("*") for c in comments) else ""
+            raise DataFormatError(
+                f"{where}, so nothing says what the columns hold; for frequency, magnitude, phase "
+                "columns pass " + ", ".join(f"--{_NAMES[a][1]} {_NAMES[a][2]}" for a in _NAMES
+                                              if a not in given)
+                + f", or add a header such as 'Frequency (Hz),|Z| (ohm),Phase (deg)'{hint}")
+    lay = _merge(lay, options, where=where, is_zma=is_zma, notices=notices)
+    ncols = 4 if lay.weights else 3
+    what = ("frequency, " + ("magnitude, phase" if lay.rep == "magphase" else "real, imaginary")
+            + (", weight" if lay.weights else ""))
+    arr = numeric_rows(body, delim, ncols, path, decimal_comma=decimal_comma, what=what)
+    linenos = [ln for ln, _ in body]
+    check_rows(arr, linenos, path, magnitude_col=lay.cols[0] if lay.rep == "magphase" else None)
+    a, b = arr[:, lay.cols[0]] * (lay.scale * lay.signs[0]), arr[:, lay.cols[1]] * lay.signs[1]
+    if min(lay.signs) < 0:
+        notices.append("values of the column(s) named with a leading minus were negated")
+    if lay.freq_unit == "rad/s":
+        omega = arr[:, 0].copy()
+    else:
+        omega = 2 * math.pi * freq_scale(lay.freq_unit) * arr[:, 0]
+    if lay.rep == "magphase":
+        val = a * np.exp(1j * _phase_radians(b, lay, linenos, path, notices))
+    else:
+        val = a + 1j * b * lay.scale
+        bad = np.flatnonzero(val == 0)
+        if bad.size:
+            raise DataFormatError(f"{path}:{linenos[bad[0]]}: zero impedance/admittance (both parts 0)")
+    weights = None
+    if lay.weights:
+        weights = arr[:, 3]
+        bad = np.flatnonzero(weights <= 0)
+        if bad.size:
+            raise DataFormatError(f"{path}:{linenos[bad[0]]}: non-positive weight {weights[bad[0]]:g}")
+    native = header == NATIVE_HEADER or (header or "").startswith(NATIVE_HEADER + ",")
+    fmt = "zma" if is_zma else "native" if native and any(NATIVE_MARKER in c for c in comments) else \
+        {"\t": "tsv", None: "text"}.get(delim, "csv")
+    meta = {"source": str(path), "format": fmt, "freq_unit": lay.freq_unit,
+            "phase_unit": lay.phase_unit if lay.rep == "magphase" else None,
+            "quantity": lay.quantity, "representation": lay.rep, "units_from": dict(lay.units_from),
+            "header": header, "n_header_lines": body[0][0] - 1, **_written_meta(comments)}
+    if lay.scale != 1.0:
+        notices.append(f"values scaled by {lay.scale:g} to {'ohm' if lay.quantity == 'Z' else 'S'} "
+                       "as the header's unit says")
+    Y = 1.0 / val if lay.quantity == "Z" else val
+    return finish(omega, Y, linenos, path, meta, notices, weights)
+
+
+def _phase_radians(ph: np.ndarray, lay: Layout, linenos: list[int], path: Path,
+                   notices: list[str]) -> np.ndarray:
+    """Phase column in radians, refusing values that cannot be in the declared unit."""
+    source = "the header says" if lay.units_from.get("phase_unit") == "header" else \
+        "--phase-unit says" if lay.units_from.get("phase_unit") == "option" else "the .zma convention says"
+    peak = int(np.argmax(np.abs(ph)))
+    if lay.phase_unit == "rad":
+        if abs(ph[peak]) > 2 * math.pi + 1e-9:
+            raise DataFormatError(f"{path}:{linenos[peak]}: phase {ph[peak]:g} is beyond 2π, so it "
+                                  f"is not in radians as {source}; is it in degrees?")
+        return ph
+    if ph.size > 20 and 0 < abs(ph[peak]) <= math.pi:
+        msg = (f"{path}: the phase is in degrees as {source}, but never exceeds π; "
+               "check that it is not in radians")
+        warnings.warn(msg, UserWarning, stacklevel=4)
+        notices.append(msg)
+    return np.deg2rad(ph)
