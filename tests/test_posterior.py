@@ -2,6 +2,7 @@
 
 import json
 import math
+import warnings
 
 import matplotlib
 
@@ -76,7 +77,9 @@ def test_datatree_round_trip_summary_and_loo(post_I, tmp_path):
     assert a["model"] == "I" and a["converged"] == 1 and a["n_steps"] == post_I.n_steps
     assert json.loads(a["priors"])[0]["name"] == "zeta" and json.loads(a["versions"])["emcee"]
     assert json.loads(a["tau"])["R0"] == pytest.approx(post_I.tau[3])
-    assert np.isfinite(az.loo(dt).elpd)
+    with warnings.catch_warnings():  # a few Pareto k > 0.7 on 28 x 70 thinned draws: not the point here
+        warnings.simplefilter("ignore", UserWarning)
+        assert np.isfinite(az.loo(dt).elpd)
     back = read_posterior(path)
     np.testing.assert_array_equal(back.draws, post_I.draws)
     assert back.likelihood.params == post_I.likelihood.params and back.model.label == "I"
