@@ -184,6 +184,37 @@ def _starts(meas: Measurement, model: Model, initial, max_nfev):
         "global_stage": ie.details.get("global_stage", False), "alternatives": len(ie.alternatives)}
 
 
+def _resonance_rule(model: Model, resonance):
+    """``plausible(z)``: the candidate's ``ω0`` lies within a factor 2 of the half-prominence band
+    of the resonance the data shows (:func:`~bayes_emt.checks.locate_resonance`); always true
+    when the data shows none or the model has no ``ω0``.
+
+    A model too poor for the data can score a lower relative-residual cost by spending its
+    mechanical branch on the coil instead (model I on eddy-current data: ``ζ`` at its bound,
+    ``ω0`` above 1e4 rad/s, mimicking the resistance rise): an optimum of the objective that
+    says nothing about the transducer, so such candidates lose to any that places the
+    resonance where the data has it (``info["rejected"]`` records them)."""
+    if resonance is None or "omega0" not in model.names:
+        return lambda z: True
+    i = model.names.index("omega0")
+    lo, hi = 0.5 * min(resonance.omega_lo, resonance.omega), 2.0 * max(resonance.omega_hi, resonance.omega)
+
+    def plausible(z) -> bool:
+        w0 = float(model.params[i].from_z(z[i]))
+        return bool(lo <= w0 <= hi)
+
+    return plausible
+
+
+def _rejection(model: Model, z, cost: float, final, where: str) -> dict:
+    theta = model.params.from_z(z)
+    rms = float(np.sqrt(np.mean(np.abs(final.residuals(z)) ** 2) * 2))
+    return {"where": where, "omega0": float(theta[model.names.index("omega0")]),
+            "zeta": float(theta[model.names.index("zeta")]) if "zeta" in model.names else None,
+            "cost": float(cost), "rms_rel_residual": rms,
+            "why": "omega0 outside the band of the resonance the data shows"}
+
+
 def fit_admittance(meas: Measurement, model: Model, *, initial=None,
                    omega_range: tuple[float | None, float | None] | None = None,
                    polish: bool = True, max_nfev: int | None = None) -> FitResult:
@@ -219,7 +250,7 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     t0 = time.perf_counter()
     if omega_range is not None:
         meas = meas.select(*omega_range)
-    check_fit_inputs(meas, model.ndim, label=model.label)
+    resonance = check_fit_inputs(meas, model.ndim, label=model.label)
     k = model.ndim
     max_nfev = max_nfev or 25 * k
     starts, labels, info_initial = _starts(meas, model, initial, max_nfev)
@@ -249,14 +280,20 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     # thousands of evaluations towards the same end point the polish reaches
     mid = {"budget": min(max_nfev, 30 * k), "tol": 1e-10}
     final = _Problem(model, meas, wrel, np.arange(k), np.zeros(k))
+    plausible = _resonance_rule(model, resonance)
     best = None
+    rejected = []
     for i, theta0 in enumerate(starts):
         z, _ = run(model.params.to_z(theta0), wrel, all_free,
                    f"0: start-up {i}, all parameters, relative residuals", **mid)
         c = final.cost(z)
-        if best is None or c < best[0]:
-            best = (c, z, i)
-    cost0, z0, info["start_used"] = best
+        ok = plausible(z)
+        if not ok:
+            rejected.append(_rejection(model, z, c, final, f"start-up {i}"))
+        # a start-up that puts the resonance where the data has none loses to any that does
+        if best is None or (ok, -c) > (best[3], -best[0]):
+            best = (c, z, i, ok)
+    cost0, z0, info["start_used"], _ = best
     info["path"] = (f"start {info['start_used']} ({labels[info['start_used']]}) of {len(starts)}, "
                     "steps 0-2")
     z, _ = run(z0, 1.0 / np.abs(s), all_free, "1: all parameters, W = 1/s", **mid)
@@ -267,16 +304,22 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         # the polish works on the relative residuals themselves (no order-one normalisation)
         t = time.perf_counter()
         sol = final.solve(z, lo, hi, max_nfev)
-        if final.cost(z0) < 2 * sol.cost:
+        if final.cost(z0) < 2 * sol.cost or not plausible(sol.x):
             # the paper's steps ended in a worse valley than the start-up: polish that too
             alt = final.solve(z0, lo, hi, max_nfev)
-            if alt.cost < sol.cost:
+            if (plausible(alt.x), -alt.cost) > (plausible(sol.x), -sol.cost):
                 sol, info["final_start"] = alt, "step 0"
+            elif not plausible(alt.x) and alt.cost < sol.cost:
+                rejected.append(_rejection(model, alt.x, alt.cost, final, "polish from step 0"))
+        if not plausible(sol.x):
+            info["resonance_mismatch"] = True
         z = sol.x
         info["path"] += f", polish from {info['final_start']}"
         steps.append({"step": f"3: polish from {info['final_start']}, all parameters, relative residuals",
                       "nfev": int(sol.nfev), "cost": float(sol.cost), "status": int(sol.status),
                       "message": sol.message, "seconds": time.perf_counter() - t})
+    if rejected:
+        info["rejected"] = rejected
     theta = model.params.from_z(z)
     if not np.all(np.isfinite(theta)):
         raise FitError(f"{meas.source}: the fit of model {model.label} diverged")
