@@ -132,7 +132,8 @@ def physical_from_two_fits(base: Mapping[str, float] | FitResult, loaded: Mappin
 class JointModel:
     """Two runs of one transducer differing by a known mass ``delta_m`` [kg].
 
-    The joint parameter vector is ``(m, c, k, phi_raw)`` followed by the model's other parameters
+    The joint parameter vector is ``(m, c, k, phi_raw)`` (priors ``physical``, default
+    :func:`~bayes_emt.params.default_spec`) followed by the model's other parameters
     (``R0`` and the coil), in :attr:`params` order; :meth:`thetas` maps it (vectorised over
     leading axes) to each run's model vector ``(ζ, ω0, φ̄, R0, coil...)`` for
     :meth:`Model.admittance <bayes_emt.models.Model.admittance>`.
@@ -140,17 +141,23 @@ class JointModel:
 
     model: Model
     delta_m: float
+    physical: ParamSet | None = None
     params: ParamSet = field(init=False)
     shared: tuple[str, ...] = field(init=False)
 
     def __post_init__(self):
+        default = ParamSet([default_spec(n) for n in PHYSICAL_NAMES])
+        if self.physical is None:
+            object.__setattr__(self, "physical", default)
+        elif self.physical.names != default.names:
+            raise ValueError(f"physical parameters must be {list(PHYSICAL_NAMES)}, "
+                             f"got {list(self.physical.names)}")
         missing = [n for n in _MECH if n not in self.model.names]
         if missing:
             raise ValueError(f"model {self.model.label} lacks {missing}; an added-mass fit needs {_MECH}")
         shared = tuple(n for n in self.model.names if n not in _MECH)
         object.__setattr__(self, "shared", shared)
-        object.__setattr__(self, "params", ParamSet([default_spec(n) for n in PHYSICAL_NAMES]
-                                                    + [self.model.params[n] for n in shared]))
+        object.__setattr__(self, "params", self.physical + ParamSet([self.model.params[n] for n in shared]))
 
     @property
     def names(self) -> tuple[str, ...]:

@@ -34,6 +34,8 @@ is NaN-free: ``-inf`` outside the prior support or wherever the model cannot be 
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -45,7 +47,8 @@ from .data import Measurement
 from .models import Model
 from .params import LogUniform, ParamSet, ParamSpec
 
-__all__ = ["NOISE_PARAMS", "NU_SPEC", "Likelihood", "LikelihoodKind", "noise_param_set"]
+__all__ = ["NOISE_PARAMS", "NU_SPEC", "Likelihood", "LikelihoodKind", "SamplingSpaceDensity",
+           "noise_param_set", "measurement_sha256"]
 
 LikelihoodKind = Literal["gaussian", "student"]
 
@@ -67,8 +70,56 @@ def noise_param_set(kind: LikelihoodKind = "gaussian", nu: float | None = 4.0) -
     return NOISE_PARAMS + ParamSet([NU_SPEC]) if kind == "student" and nu is None else NOISE_PARAMS
 
 
+class SamplingSpaceDensity:
+    """Posterior densities in sampling space for any likelihood with ``params`` (a ParamSet
+    carrying the priors) and ``__call__(theta (..., k)) -> total log-likelihood``; shared by
+    :class:`Likelihood` and the joint added-mass likelihood."""
+
+    def log_prob_z(self, z) -> tuple[np.ndarray, np.ndarray]:
+        """``(log posterior, log likelihood)`` at sampling-space points ``z`` of shape ``(W, k)``.
+
+        The log posterior is unnormalised and in sampling space (prior with its log-Jacobian, plus
+        likelihood); both are ``-inf`` outside the prior support, never NaN. The likelihood is
+        only evaluated where the prior is positive.
+        """
+        z = np.atleast_2d(np.asarray(z, float))
+        lp = self.params.log_prior_z(z)
+        post = np.full(z.shape[0], -np.inf)
+        ll = np.full(z.shape[0], -np.inf)
+        ok = np.isfinite(lp)
+        if np.any(ok):
+            ll[ok] = self(self.params.from_z(z[ok]))
+            post[ok] = np.where(np.isfinite(ll[ok]), lp[ok] + ll[ok], -np.inf)
+        return post, ll
+
+    def log_posterior_z(self, z) -> np.ndarray:
+        """Unnormalised log posterior in sampling space, ``(W, k)`` → ``(W,)``."""
+        return self.log_prob_z(z)[0]
+
+    def emcee_log_prob(self, z) -> list[tuple[float, float]]:
+        """emcee's ``log_prob_fn`` with ``vectorize=True`` and one blob (the total log-likelihood).
+
+        emcee 3.1.6 iterates over what a vectorised function returns and takes ``item[0]`` as the
+        walker's log probability and ``item[1:]`` as its blobs, so it needs one ``(lp, blob)``
+        pair per walker; returning ``(lp_array, blob_array)`` fails ("incompatible input
+        dimensions"; tests/test_likelihood.py checks both).
+        """
+        post, ll = self.log_prob_z(z)
+        return list(zip(post.tolist(), ll.tolist(), strict=True))
+
+
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def measurement_sha256(meas: Measurement) -> str:
+    """SHA-256 of a measurement's frequencies, admittances and weights (checkpoint identity)."""
+    return _sha256(meas.omega.tobytes() + meas.Y.tobytes()
+                   + (b"" if meas.weights is None else meas.weights.tobytes()))
+
+
 @dataclass(frozen=True, eq=False)
-class Likelihood:
+class Likelihood(SamplingSpaceDensity):
     """``log p(Y | θ)`` for one measurement and one model.
 
     Parameters
@@ -121,6 +172,11 @@ class Likelihood:
     @property
     def n_points(self) -> int:
         return self.meas.n_points
+
+    @property
+    def label(self) -> str:
+        """``source, model M`` (progress bars, warnings)."""
+        return f"{self.meas.source}, model {self.model.label}"
 
     def describe(self) -> str:
         """One line naming the noise model (for reports and file attributes)."""
@@ -178,34 +234,10 @@ class Likelihood:
         ``params.prior_transform`` as its ``prior_transform``)."""
         return np.sum(self.pointwise(theta), axis=-1)
 
-    def log_prob_z(self, z) -> tuple[np.ndarray, np.ndarray]:
-        """``(log posterior, log likelihood)`` at sampling-space points ``z`` of shape ``(W, k)``.
-
-        The log posterior is unnormalised and in sampling space (prior with its log-Jacobian, plus
-        likelihood); both are ``-inf`` outside the prior support, never NaN. The likelihood is
-        only evaluated where the prior is positive.
-        """
-        z = np.atleast_2d(np.asarray(z, float))
-        lp = self.params.log_prior_z(z)
-        post = np.full(z.shape[0], -np.inf)
-        ll = np.full(z.shape[0], -np.inf)
-        ok = np.isfinite(lp)
-        if np.any(ok):
-            ll[ok] = self(self.params.from_z(z[ok]))
-            post[ok] = np.where(np.isfinite(ll[ok]), lp[ok] + ll[ok], -np.inf)
-        return post, ll
-
-    def log_posterior_z(self, z) -> np.ndarray:
-        """Unnormalised log posterior in sampling space, ``(W, k)`` → ``(W,)``."""
-        return self.log_prob_z(z)[0]
-
-    def emcee_log_prob(self, z) -> list[tuple[float, float]]:
-        """emcee's ``log_prob_fn`` with ``vectorize=True`` and one blob (the total log-likelihood).
-
-        emcee 3.1.6 iterates over what a vectorised function returns and takes ``item[0]`` as the
-        walker's log probability and ``item[1:]`` as its blobs, so it needs one ``(lp, blob)``
-        pair per walker; returning ``(lp_array, blob_array)`` fails ("incompatible input
-        dimensions"; tests/test_likelihood.py checks both).
-        """
-        post, ll = self.log_prob_z(z)
-        return list(zip(post.tolist(), ll.tolist(), strict=True))
+    def identity(self) -> dict:
+        """What a checkpoint must match to be resumed by this likelihood (data by SHA-256)."""
+        return {"model": self.model.label, "terms": [t.name for t in self.model.terms],
+                "n_turns": self.model.n_turns, "names": list(self.params.names), "likelihood": self.kind,
+                "nu": self.nu, "n_points": self.meas.n_points,
+                "priors_sha256": _sha256(json.dumps(self.params.to_dict(), sort_keys=True).encode()),
+                "data_sha256": measurement_sha256(self.meas), "source": self.meas.source}

@@ -115,7 +115,7 @@ class Posterior:
         object.__setattr__(self, "history", tuple(self.history))
 
     @classmethod
-    def from_chain(cls, lik: Likelihood, chain, log_prob, blobs, *, tau, burn: int, max_draws: int,
+    def from_chain(cls, lik, chain, log_prob, blobs, *, tau, burn: int, max_draws: int,
                    **kwargs) -> Posterior:
         """Burn, thin and convert a sampling-space chain ``(steps, walkers, k)`` (emcee layout)."""
         n, nwalkers = chain.shape[:2]
@@ -191,19 +191,19 @@ class Posterior:
                 "parameters": {r["name"]: {k: r[k] for k in ("median", "q05", "q95", "ess", "tau", "unit")}
                                for r in self.summary_rows()},
                 "derived": {name: {"median": float(np.median(v)), "q05": float(np.quantile(v, 0.05)),
-                                   "q95": float(np.quantile(v, 0.95)), "unit": DERIVED[name][0]}
+                                   "q95": float(np.quantile(v, 0.95)), "unit": self.derived_units()[name]}
                             for name, v in self.derived().items()}}
 
+    def derived_units(self) -> dict[str, str]:
+        """Unit of each quantity :meth:`derived` returns."""
+        return {k: v[0] for k, v in DERIVED.items()}
+
     # ---- ArviZ -----------------------------------------------------------------------------------
-    def _attrs(self) -> dict:
-        lik, model, meas = self.likelihood, self.model, self.likelihood.meas
+    def _run_attrs(self) -> dict:
+        """File attributes of the sampler run: seed, convergence numbers, settings, versions."""
         names = list(self.names)
-        return {"model": model.name, "model_label": model.label,
-                "rings": -1 if model.rings is None else int(model.rings), "n_turns": float(model.n_turns),
-                "terms": json.dumps([t.name for t in model.terms]), "likelihood": lik.kind,
-                "nu": "sampled" if lik.sample_nu else (-1.0 if lik.nu is None else float(lik.nu)),
-                "noise_model": lik.describe(), "priors": json.dumps(lik.params.to_dict()),
-                "units": json.dumps(dict(zip(names, lik.params.units, strict=True))),
+        return {"priors": json.dumps(self.likelihood.params.to_dict()),
+                "units": json.dumps(dict(zip(names, self.likelihood.params.units, strict=True))),
                 "seed": int(self.seed), "converged": int(self.converged), "message": self.message,
                 "n_steps": int(self.n_steps), "burn": int(self.burn), "thin": int(self.thin),
                 "n_walkers": self.n_walkers, "acceptance": float(self.acceptance),
@@ -211,9 +211,21 @@ class Posterior:
                 "ess": json.dumps(dict(zip(names, map(float, self.ess), strict=True))),
                 "tau_max": float(np.max(self.tau)), "history": json.dumps(list(self.history)),
                 "settings": json.dumps(dict(self.settings)), "wall_time_s": float(self.wall_time),
-                "source": meas.source, "measurement_meta": meas.meta_json(),
                 "versions": json.dumps(_versions()), "inference_library": "emcee",
                 "checkpoint": self.checkpoint or ""}
+
+    def _model_attrs(self) -> dict:
+        lik, model = self.likelihood, self.model
+        return {"model": model.name, "model_label": model.label,
+                "rings": -1 if model.rings is None else int(model.rings), "n_turns": float(model.n_turns),
+                "terms": json.dumps([t.name for t in model.terms]), "likelihood": lik.kind,
+                "nu": "sampled" if lik.sample_nu else (-1.0 if lik.nu is None else float(lik.nu)),
+                "noise_model": lik.describe()}
+
+    def _attrs(self) -> dict:
+        meas = self.likelihood.meas
+        return {**self._model_attrs(), **self._run_attrs(), "kind": "single",
+                "source": meas.source, "measurement_meta": meas.meta_json()}
 
     def to_datatree(self):
         """The ArviZ 1.x ``xarray.DataTree`` described in the module docstring."""
@@ -239,7 +251,7 @@ class Posterior:
                       "weights": ["omega"]},
                 coords={"omega": meas.omega, "draw": self.steps})
         units = dict(zip(self.names, lik.params.units, strict=True))
-        units.update({k: DERIVED[k][0] for k in derived})
+        units.update(self.derived_units())
         for name, unit in units.items():
             dt["posterior"][name].attrs["units"] = unit
         for group in ("log_likelihood", "observed_data", "constant_data"):
@@ -272,6 +284,10 @@ def read_posterior(path: str | Path) -> Posterior:
 
     dt = az.from_netcdf(path)
     a = dt.attrs
+    if a.get("kind") == "added_mass":
+        from .added_mass_posterior import read_added_mass_posterior
+
+        return read_added_mass_posterior(dt)
     rings = None if int(a["rings"]) < 0 else int(a["rings"])
     model = build_model(str(a["model"]), rings=rings, n_turns=float(a["n_turns"]))
     if [t.name for t in model.terms] != json.loads(a["terms"]):

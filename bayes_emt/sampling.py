@@ -51,12 +51,12 @@ model, priors, likelihood, data (SHA-256), seed and walker count, and refuses ot
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import sys
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -74,7 +74,8 @@ from .posterior import Posterior
 from .results import FitResult
 
 __all__ = ["SamplerSettings", "SnookerMove", "default_moves", "initial_walkers", "stopping_rule",
-           "sample_posterior", "sample_likelihood"]
+           "sample_posterior", "sample_likelihood",
+           "run_ensemble", "start_ball", "noise_start"]
 
 _GROUP = "mcmc"
 
@@ -155,20 +156,33 @@ def initial_walkers(lik: Likelihood, fit: FitResult, nwalkers: int, rng: np.rand
     smallest |Y|, where it does not matter; a sampled ``nu`` around 10. All clipped to the prior
     support and with a finite posterior; the ball shrinks if too many points fall outside.
     """
-    k = lik.model.ndim
     z0 = lik.model.params.to_z(fit.theta)
     cov = fit.cov_z if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)) else None
     if cov is None:
         cov = np.diag((1e-3 * np.maximum(np.abs(z0), 1.0)) ** 2)
-    cov = 0.5 * (cov + cov.T) + np.eye(k) * 1e-12 * np.max(np.abs(np.diag(cov)))
-    sig0 = max(fit.rms_rel_residual / math.sqrt(2), 1e-5)
-    centre = [math.log(sig0), math.log(1e-3 * sig0 * float(np.min(np.abs(lik.meas.Y))))]
-    spread = [0.05, 1.0]
+    centre, spread = noise_start(fit.rms_rel_residual, float(np.min(np.abs(lik.meas.Y))))
     if lik.sample_nu:
         centre.append(math.log(10.0))
         spread.append(0.3)
-    lo, hi = lik.params.bounds_z()
-    out = np.empty((nwalkers, lik.ndim))
+    return start_ball(lik, z0, cov, centre, spread, nwalkers, rng)
+
+
+def noise_start(rms_rel: float, min_abs_Y: float) -> tuple[list[float], list[float]]:
+    """Centre and spread, in sampling space, of ``(sigma_rel, sigma_abs)`` for walkers started
+    from a fit with rms relative residual ``rms_rel`` of data whose smallest |Y| is ``min_abs_Y``."""
+    sig0 = max(rms_rel / math.sqrt(2), 1e-5)
+    return [math.log(sig0), math.log(1e-3 * sig0 * min_abs_Y)], [0.05, 1.0]
+
+
+def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Generator) -> np.ndarray:
+    """``nwalkers`` sampling-space points: the first ``len(z0)`` coordinates from ``N(z0, cov)``,
+    the rest (noise) from independent normals (``centre``, ``spread``); clipped to the prior
+    support of ``target.params``, each with a finite posterior; the ball shrinks if too many fall
+    outside."""
+    k = len(z0)
+    cov = 0.5 * (cov + cov.T) + np.eye(k) * 1e-12 * np.max(np.abs(np.diag(cov)))
+    lo, hi = target.params.bounds_z()
+    out = np.empty((nwalkers, target.ndim))
     filled = 0
     for _ in range(50):
         n = nwalkers - filled
@@ -176,13 +190,13 @@ def initial_walkers(lik: Likelihood, fit: FitResult, nwalkers: int, rng: np.rand
         zn = np.asarray(centre) + np.asarray(spread) * rng.standard_normal((n, len(centre)))
         span = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
         cand = np.clip(np.hstack([zm, zn]), lo + 1e-9 * span, hi - 1e-9 * span)
-        good = cand[np.isfinite(lik.log_posterior_z(cand))][:n]
+        good = cand[np.isfinite(target.log_posterior_z(cand))][:n]
         out[filled : filled + good.shape[0]] = good
         filled += good.shape[0]
         if filled == nwalkers:
             return out
         cov = cov * 0.25
-    raise FitError(f"model {lik.model.label}: could not start the walkers: the posterior is zero around "
+    raise FitError(f"{target.label}: could not start the walkers: the posterior is zero around "
                    "the least-squares fit (check the priors against the fitted values)")
 
 
@@ -226,16 +240,9 @@ def _verdict_message(v: dict, max_steps: int, settings: SamplerSettings) -> str:
     return f"not converged within {max_steps} steps: " + ", ".join(why)
 
 
-def _run_identity(lik: Likelihood, seed: int, nwalkers: int, settings: SamplerSettings) -> dict:
-    meas = lik.meas
-    data = meas.omega.tobytes() + meas.Y.tobytes() + (b"" if meas.weights is None else meas.weights.tobytes())
-    priors = json.dumps(lik.params.to_dict(), sort_keys=True)
-    return {"model": lik.model.label, "terms": [t.name for t in lik.model.terms],
-            "n_turns": lik.model.n_turns, "names": list(lik.params.names), "likelihood": lik.kind,
-            "nu": lik.nu, "seed": int(seed), "nwalkers": int(nwalkers), "n_points": meas.n_points,
-            "reseed_every": settings.reseed_every, "moves": "DE 0.8 + snooker 0.2",
-            "priors_sha256": hashlib.sha256(priors.encode()).hexdigest(),
-            "data_sha256": hashlib.sha256(data).hexdigest(), "source": meas.source}
+def _run_identity(target, seed: int, nwalkers: int, settings: SamplerSettings) -> dict:
+    return {**target.identity(), "seed": int(seed), "nwalkers": int(nwalkers),
+            "reseed_every": settings.reseed_every, "moves": "DE 0.8 + snooker 0.2"}
 
 
 def _check_resume(path: Path, ident: dict) -> None:
@@ -293,37 +300,37 @@ def _acceptance(chain: np.ndarray, burn: int) -> float:
     return float(np.mean(np.any(c[1:] != c[:-1], axis=-1)))
 
 
-def sample_likelihood(lik: Likelihood, *, fit: FitResult | None = None, seed: int = 0,
-                      max_steps: int | None = None, checkpoint: str | Path | None = None,
-                      resume: bool = False, overwrite: bool = False, progress: bool | None = None,
-                      settings: SamplerSettings = SamplerSettings()) -> Posterior:
-    """Sample the posterior defined by a :class:`~bayes_emt.likelihood.Likelihood` (its model,
-    data, priors and noise model); arguments as :func:`sample_posterior`."""
+def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, max_steps: int | None = None,
+                 checkpoint: str | Path | None = None, resume: bool = False, overwrite: bool = False,
+                 progress: bool | None = None, settings: SamplerSettings = SamplerSettings()) -> dict:
+    """Run the ensemble sampler on any ``target`` to the stopping rule (module docstring).
+
+    ``target`` has ``params`` (ParamSet with priors), ``ndim``, ``label``, ``identity()`` (what a
+    checkpoint must match) and ``emcee_log_prob`` (:class:`~bayes_emt.likelihood.SamplingSpaceDensity`);
+    ``start(nwalkers)`` returns the walkers' sampling-space start (only called for a fresh run).
+    Returns the chain ``(steps, walkers, k)``, ``log_prob``, ``blobs``, ``tau``, ``burn``, the
+    verdict, its message and history, and the keyword arguments :meth:`Posterior.from_chain`
+    takes besides them.
+    """
     t0 = time.perf_counter()
     max_steps = int(settings.max_steps if max_steps is None else max_steps)
     if max_steps < 1:
         raise ValueError(f"max_steps must be positive, got {max_steps}")
     if resume and checkpoint is None:
         raise ValueError("resume needs the checkpoint file of the run to continue")
-    ndim = lik.ndim
+    ndim = target.ndim
     nwalkers = max(settings.walkers_per_dim * ndim, 2 * ndim + 2)
     nwalkers += nwalkers % 2
-    ident = _run_identity(lik, seed, nwalkers, settings)
+    ident = _run_identity(target, seed, nwalkers, settings)
     backend = _open_backend(checkpoint, resume, overwrite, ident, nwalkers, ndim, settings.reseed_every)
-    start = None
-    if backend.iteration == 0:
-        if fit is None:
-            from .fitting import fit_admittance
-
-            fit = fit_admittance(lik.meas, lik.model)
-        start = initial_walkers(lik, fit, nwalkers, np.random.default_rng(seed))
-    sampler = emcee.EnsembleSampler(nwalkers, ndim, lik.emcee_log_prob, moves=default_moves(),
+    z0 = start(nwalkers) if backend.iteration == 0 else None
+    sampler = emcee.EnsembleSampler(nwalkers, ndim, target.emcee_log_prob, moves=default_moves(),
                                     vectorize=True, backend=backend)
     progress = sys.stderr.isatty() if progress is None else bool(progress)
     from tqdm.auto import tqdm
 
     bar = tqdm(total=max_steps, initial=min(backend.iteration, max_steps), disable=not progress,
-               file=sys.stderr, desc=f"emcee {lik.model.label}", unit="step", leave=False)
+               file=sys.stderr, desc=f"emcee {target.label}", unit="step", leave=False)
     history: list[dict] = []
     verdict = None
     try:
@@ -339,7 +346,7 @@ def sample_likelihood(lik: Likelihood, *, fit: FitResult | None = None, seed: in
             block = n // settings.reseed_every
             seg = min((block + 1) * settings.reseed_every - n, max_steps - n)
             if n == 0:
-                state = emcee.State(start, random_state=_block_state(seed, 0))
+                state = emcee.State(z0, random_state=_block_state(seed, 0))
             else:
                 state = backend.get_last_sample()
                 if n % settings.reseed_every == 0:
@@ -350,19 +357,39 @@ def sample_likelihood(lik: Likelihood, *, fit: FitResult | None = None, seed: in
         bar.close()
     message = _verdict_message(verdict, max_steps, settings)
     if not verdict["converged"]:
-        warnings.warn(f"{lik.meas.source}, model {lik.model.label}: {message}", ConvergenceWarning,
-                      stacklevel=3)
+        warnings.warn(f"{target.label}: {message}", ConvergenceWarning, stacklevel=3)
     chain = backend.get_chain()
     tau = emcee.autocorr.integrated_time(chain, tol=0)
     burn = min(int(math.ceil(2 * np.max(tau))), chain.shape[0] - 1)
-    return Posterior.from_chain(
-        lik, chain, backend.get_log_prob(), backend.get_blobs(), tau=tau, burn=burn,
-        converged=verdict["converged"], seed=seed, message=message, history=history,
-        max_draws=settings.max_draws, acceptance=_acceptance(chain, burn),
-        wall_time=time.perf_counter() - t0,
-        settings={**asdict(settings), "max_steps": max_steps, "nwalkers": nwalkers,
-                  "moves": ident["moves"]},
-        checkpoint=None if checkpoint is None else str(checkpoint))
+    return {"chain": chain, "log_prob": backend.get_log_prob(), "blobs": backend.get_blobs(), "tau": tau,
+            "burn": burn, "max_draws": settings.max_draws,
+            "converged": verdict["converged"], "seed": seed, "message": message, "history": history,
+            "acceptance": _acceptance(chain, burn), "wall_time": time.perf_counter() - t0,
+            "settings": {**asdict(settings), "max_steps": max_steps, "nwalkers": nwalkers,
+                         "moves": ident["moves"]},
+            "checkpoint": None if checkpoint is None else str(checkpoint)}
+
+
+def sample_likelihood(lik: Likelihood, *, fit: FitResult | None = None, seed: int = 0,
+                      max_steps: int | None = None, checkpoint: str | Path | None = None,
+                      resume: bool = False, overwrite: bool = False, progress: bool | None = None,
+                      settings: SamplerSettings = SamplerSettings()) -> Posterior:
+    """Sample the posterior defined by a :class:`~bayes_emt.likelihood.Likelihood` (its model,
+    data, priors and noise model); arguments as :func:`sample_posterior`."""
+    t0 = time.perf_counter()
+
+    def start(nwalkers):
+        nonlocal fit
+        if fit is None:
+            from .fitting import fit_admittance
+
+            fit = fit_admittance(lik.meas, lik.model)
+        return initial_walkers(lik, fit, nwalkers, np.random.default_rng(seed))
+
+    run = run_ensemble(lik, start, seed=seed, max_steps=max_steps, checkpoint=checkpoint, resume=resume,
+                       overwrite=overwrite, progress=progress, settings=settings)
+    run["wall_time"] = time.perf_counter() - t0
+    return Posterior.from_chain(lik, **run)
 
 
 def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None = None, seed: int = 0,
