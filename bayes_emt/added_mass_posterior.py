@@ -270,14 +270,12 @@ def read_added_mass_posterior(dt) -> AddedMassPosterior:
     """Rebuild an :class:`AddedMassPosterior` from its ``DataTree`` (``kind == "added_mass"``);
     :func:`~bayes_emt.posterior.read_posterior` dispatches here."""
     from .models import build_model
-    from .params import ParamSpec, prior_from_dict
+    from .posterior import stored_param_set, stored_record
 
     a = dt.attrs
     rings = None if int(a["rings"]) < 0 else int(a["rings"])
     model = build_model(str(a["model"]), rings=rings, n_turns=float(a["n_turns"]))
-    specs = ParamSet(ParamSpec(d["name"], d["unit"], d["label"], prior_from_dict(d["prior"]),
-                               d["description"])
-                     for d in json.loads(a["priors"]))
+    specs = stored_param_set(a)
     shared = [n for n in model.names if n not in ("zeta", "omega0", "phi")]
     model = model.with_priors({n: specs[n].prior for n in shared})
     joint = JointModel(model, float(a["delta_m_kg"]), physical=ParamSet(specs[:4]))
@@ -293,18 +291,7 @@ def read_added_mass_posterior(dt) -> AddedMassPosterior:
     nu = None if a["nu"] == "sampled" else float(a["nu"])
     lik = AddedMassLikelihood(joint, meas[0], meas[1], str(a["likelihood"]),
                               None if nu is None or nu < 0 else nu, noise)
-    post = dt["posterior"]
-    names = list(specs.names)
-    draws = np.stack([post[n].transpose("chain", "draw").values for n in names], axis=-1)
-    ss = dt["sample_stats"]
-    tau, ess = json.loads(a["tau"]), json.loads(a["ess"])
-    chains = {key: ss[key].transpose("chain", "draw").values for key in ("lp", "loglik")}
-    return AddedMassPosterior(
-        lik, draws, post["draw"].values, chains["lp"], chains["loglik"], np.array([tau[n] for n in names]),
-        np.array([ess[n] for n in names]), int(a["n_steps"]), int(a["burn"]), int(a["thin"]),
-        bool(int(a["converged"])), int(a["seed"]), str(a["message"]), float(a["acceptance"]),
-        float(a["wall_time_s"]), tuple(json.loads(a["history"])), json.loads(a["settings"]),
-        str(a["checkpoint"]) or None, fit=json.loads(a["joint_fit"]))
+    return AddedMassPosterior(lik, **stored_record(dt, specs.names), fit=json.loads(a["joint_fit"]))
 
 
 def _fit_summary(r: AddedMassResult) -> dict:

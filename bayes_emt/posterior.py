@@ -36,8 +36,10 @@ import numpy as np
 from ._atomic import atomic_path
 from .likelihood import Likelihood
 from .models import Model
+from .params import ParamSet
 
-__all__ = ["Posterior", "DERIVED", "read_posterior", "physical_from_pair"]
+__all__ = ["Posterior", "DERIVED", "read_posterior", "physical_from_pair", "stored_param_set",
+           "stored_record"]
 
 _LOG_LIK_CHUNK = 64  # draws per vectorised pointwise-likelihood call (memory: chunk × F × terms)
 
@@ -280,7 +282,6 @@ def read_posterior(path: str | Path) -> Posterior:
 
     from .data import Measurement
     from .models import build_model
-    from .params import ParamSet, ParamSpec, prior_from_dict
 
     dt = az.from_netcdf(path)
     a = dt.attrs
@@ -293,8 +294,7 @@ def read_posterior(path: str | Path) -> Posterior:
     if [t.name for t in model.terms] != json.loads(a["terms"]):
         raise ValueError(f"{path}: model {a['model_label']} has terms {a['terms']}, which the registry "
                          "does not rebuild")
-    specs = ParamSet(ParamSpec(d["name"], d["unit"], d["label"], prior_from_dict(d["prior"]),
-                               d["description"]) for d in json.loads(a["priors"]))
+    specs = stored_param_set(a)
     k = model.ndim
     model = model.with_priors({s.name: s.prior for s in specs[:k]})
     omega = dt["constant_data"]["omega_rad_s"].values
@@ -304,17 +304,30 @@ def read_posterior(path: str | Path) -> Posterior:
     nu = None if a["nu"] == "sampled" else float(a["nu"])
     lik = Likelihood(model, meas, str(a["likelihood"]), None if nu is None or nu < 0 else nu,
                      ParamSet(specs[k:]))
-    post = dt["posterior"]
-    draws = np.stack([post[n].transpose("chain", "draw").values for n in specs.names], axis=-1)
-    ss = dt["sample_stats"]
-    names = list(specs.names)
+    return Posterior(lik, **stored_record(dt, specs.names))
+
+
+def stored_param_set(attrs) -> ParamSet:
+    """The sampled parameters with their priors, from a saved DataTree's ``priors`` attribute."""
+    from .params import ParamSpec, prior_from_dict
+
+    return ParamSet(ParamSpec(d["name"], d["unit"], d["label"], prior_from_dict(d["prior"]),
+                              d["description"]) for d in json.loads(attrs["priors"]))
+
+
+def stored_record(dt, names) -> dict:
+    """The :class:`Posterior` fields other than ``likelihood`` from a saved DataTree."""
+    a, post, ss = dt.attrs, dt["posterior"], dt["sample_stats"]
     tau, ess = json.loads(a["tau"]), json.loads(a["ess"])
-    return Posterior(lik, draws, post["draw"].values, ss["lp"].transpose("chain", "draw").values,
-                     ss["loglik"].transpose("chain", "draw").values, np.array([tau[n] for n in names]),
-                     np.array([ess[n] for n in names]), int(a["n_steps"]), int(a["burn"]), int(a["thin"]),
-                     bool(int(a["converged"])), int(a["seed"]), str(a["message"]), float(a["acceptance"]),
-                     float(a["wall_time_s"]), tuple(json.loads(a["history"])), json.loads(a["settings"]),
-                     str(a["checkpoint"]) or None)
+    return {"draws": np.stack([post[n].transpose("chain", "draw").values for n in names], axis=-1),
+            "steps": post["draw"].values, "log_prob": ss["lp"].transpose("chain", "draw").values,
+            "log_lik": ss["loglik"].transpose("chain", "draw").values,
+            "tau": np.array([tau[n] for n in names]), "ess": np.array([ess[n] for n in names]),
+            "n_steps": int(a["n_steps"]), "burn": int(a["burn"]), "thin": int(a["thin"]),
+            "converged": bool(int(a["converged"])), "seed": int(a["seed"]), "message": str(a["message"]),
+            "acceptance": float(a["acceptance"]), "wall_time": float(a["wall_time_s"]),
+            "history": tuple(json.loads(a["history"])), "settings": json.loads(a["settings"]),
+            "checkpoint": str(a["checkpoint"]) or None}
 
 
 def physical_from_pair(base: Posterior, loaded: Posterior, delta_m: float, *,
