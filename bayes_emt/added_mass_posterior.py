@@ -33,10 +33,17 @@ import numpy as np
 
 from .added_mass import PHYSICAL_NAMES, AddedMassResult, JointModel, _finite, fit_added_mass
 from .data import Measurement
-from .likelihood import Likelihood, LikelihoodKind, SamplingSpaceDensity, measurement_sha256, noise_param_set
+from .likelihood import (
+    Likelihood,
+    LikelihoodKind,
+    SamplingSpaceDensity,
+    _sha256,
+    measurement_sha256,
+    noise_param_set,
+)
 from .models import Model
 from .params import ParamSet
-from .posterior import DERIVED, Posterior
+from .posterior import _LOG_LIK_CHUNK, DERIVED, Posterior
 
 __all__ = ["AddedMassLikelihood", "AddedMassPosterior", "sample_added_mass", "RUNS"]
 
@@ -122,10 +129,11 @@ class AddedMassLikelihood(SamplingSpaceDensity):
     def identity(self) -> dict:
         """What a checkpoint must match to be resumed (both recordings by SHA-256)."""
         ident = self.runs[0].identity()
+        data = (measurement_sha256(self.base) + measurement_sha256(self.loaded)).encode()
         ident.update({"model": f"{self.model.label} added-mass pair", "names": list(self.params.names),
                       "delta_m": self.delta_m, "n_points": list(self.n_points),
-                      "priors_sha256": _sha(json.dumps(self.params.to_dict(), sort_keys=True)),
-                      "data_sha256": _sha(measurement_sha256(self.base) + measurement_sha256(self.loaded)),
+                      "priors_sha256": _sha256(json.dumps(self.params.to_dict(), sort_keys=True).encode()),
+                      "data_sha256": _sha256(data),
                       "source": self.label})
         return ident
 
@@ -156,12 +164,6 @@ class AddedMassLikelihood(SamplingSpaceDensity):
         return np.sum(pb, axis=-1) + np.sum(pl, axis=-1)
 
 
-def _sha(text: str) -> str:
-    import hashlib
-
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
 def _mechanics(model: Model, theta) -> dict[str, np.ndarray]:
     z, w, p = model.mechanics(theta)
     return {"zeta": np.asarray(z, float), "omega0": np.asarray(w, float), "phi": np.asarray(p, float)}
@@ -188,9 +190,10 @@ class AddedMassPosterior(Posterior):
         """Log-likelihood per draw and frequency of each run, ``(chains, draws, F_run)`` [nats]."""
         flat = self.flat()
         outs = [np.empty((flat.shape[0], n)) for n in self.likelihood.n_points]
-        for i in range(0, flat.shape[0], 64):
-            for out, pw in zip(outs, self.likelihood.pointwise(flat[i : i + 64]), strict=True):
-                out[i : i + 64] = pw
+        step = _LOG_LIK_CHUNK
+        for i in range(0, flat.shape[0], step):
+            for out, pw in zip(outs, self.likelihood.pointwise(flat[i : i + step]), strict=True):
+                out[i : i + step] = pw
         return tuple(o.reshape(self.draws.shape[:2] + (-1,)) for o in outs)
 
     def derived(self, extra=None) -> dict[str, np.ndarray]:
