@@ -14,6 +14,10 @@ positive parameters, bounded by the prior support), from the automatic initial e
 3. *polish*: all parameters with relative residuals again (times the measurement's own weights,
    if any), from the end of step 2 and — if that scored better — from the end of step 0.
 
+Wherever candidates compete (start-ups, the two polishes), one whose ``ω0`` lies away from the
+resonance the data shows loses to any that places it there, whatever their costs
+(:func:`_resonance_rule`).
+
 Why the polish: the simulator's noise, and an LCR meter's accuracy, are relative to the reading,
 with equal spread in the real and imaginary parts. Only under that weighting is the Jacobian
 covariance ``s² (JᵀJ)⁻¹`` (``s²`` the residual variance) an honest standard error; after the
@@ -240,7 +244,9 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         rms relative residual, and ``info``: ``initial`` (how the starts were found),
         ``start_used`` (index of the start whose step 0 scored best), ``path`` (one line: start,
         steps, where the polish began), ``final_start`` (``"step 2"`` or ``"step 0"``), ``steps``
-        (label, nfev, cost, status, seconds each), ``seconds``, ``at_prior_bound`` (if any).
+        (label, nfev, cost, status, seconds each), ``seconds``, ``at_prior_bound`` (if any),
+        ``rejected`` (candidates with a lower cost but ``ω0`` away from the resonance the data
+        shows, see :func:`_resonance_rule`) and ``resonance_mismatch`` (the estimate itself is).
 
     Raises
     ------
