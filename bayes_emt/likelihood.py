@@ -213,6 +213,20 @@ class Likelihood(SamplingSpaceDensity):
         with np.errstate(all="ignore"):
             return self.residuals(theta) / self.sigma(srel, sabs)
 
+    def predictive(self, theta, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """``(Y_model, Y_replicated)`` [S] at the measured frequencies, each ``(..., F)``: the model's
+        admittance for parameter sets ``theta (..., k)`` and one replicated measurement of each,
+        with noise drawn from this likelihood (Gaussian or Student-t parts of scale ``σ_k``)."""
+        th, srel, sabs, nu = self.split(theta)
+        Ym = self.model.admittance(self.meas.omega, th)
+        sig = self.sigma(srel, sabs)
+        if self.kind == "student":
+            df = np.broadcast_to(np.asarray(nu, float)[..., None] if self.sample_nu else nu, Ym.shape)
+            noise = rng.standard_t(df) + 1j * rng.standard_t(df)
+        else:
+            noise = rng.standard_normal(Ym.shape) + 1j * rng.standard_normal(Ym.shape)
+        return Ym, Ym + sig * noise
+
     # ---- densities ---------------------------------------------------------------------------
     def pointwise(self, theta) -> np.ndarray:
         """Log-likelihood per frequency [nats], shape ``(..., F)``; ``-inf`` where not finite."""

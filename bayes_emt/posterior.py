@@ -165,6 +165,15 @@ class Posterior:
             out[i : i + _LOG_LIK_CHUNK] = self.likelihood.pointwise(flat[i : i + _LOG_LIK_CHUNK])
         return out.reshape(self.draws.shape[:2] + (-1,))
 
+    def predictive(self, n_draws: int = 400, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Posterior-predictive draws at the measured frequencies: ``(Y_model, Y_replicated)`` [S],
+        each ``(n, F)``, for ``n = min(n_draws, kept draws)`` draws chosen without replacement
+        (``seed`` fixes the choice and the replicated noise; see ``Likelihood.predictive``)."""
+        rng = np.random.default_rng(seed)
+        flat = self.flat()
+        take = flat[rng.choice(flat.shape[0], size=min(n_draws, flat.shape[0]), replace=False)]
+        return self.likelihood.predictive(take, rng)
+
     # ---- summaries -----------------------------------------------------------------------------
     def summary_rows(self, prob: float = 0.9) -> list[dict]:
         """Median, central ``prob`` interval (``q05``/``q95`` for 0.9), ESS, τ and unit per parameter."""

@@ -68,20 +68,8 @@ def plot_bode_bands(post: Posterior, *, n_draws: int = 400, prob: float = 0.9, s
     seed : seed of the draw subset and of the predictive noise.
     ax : optional four axes ``(|Z|, |Z| deviation, phase, phase deviation)`` to draw into.
     """
-    lik = post.likelihood
-    meas = lik.meas
-    rng = np.random.default_rng(seed)
-    flat = post.flat()
-    take = flat[rng.choice(flat.shape[0], size=min(n_draws, flat.shape[0]), replace=False)]
-    th, srel, sabs, nu = lik.split(take)
-    Ym = post.model.admittance(meas.omega, th)
-    sig = lik.sigma(srel, sabs)
-    if lik.kind == "student":
-        df = np.broadcast_to(np.asarray(nu, float)[..., None] if lik.sample_nu else nu, Ym.shape)
-        noise = rng.standard_t(df) + 1j * rng.standard_t(df)
-    else:
-        noise = rng.standard_normal(Ym.shape) + 1j * rng.standard_normal(Ym.shape)
-    Yp = Ym + sig * noise
+    meas = post.likelihood.meas
+    Ym, Yp = post.predictive(n_draws, seed)
     if ax is None:
         fig = Figure(figsize=(7.5, 8.0), layout="constrained")
         axes = fig.subplots(4, 1, sharex=True, height_ratios=[3, 1.4, 3, 1.4])
