@@ -91,6 +91,7 @@ def run(args) -> int:
     write_json(out / "shunts.json", designs)
 
     if not args.no_sample:
+        from ..plotting import save_figure
         from ..plotting.posterior import plot_bode_bands, plot_corner
         from ..sampling import sample_posterior
 
@@ -114,7 +115,7 @@ def run(args) -> int:
         write_json(out / "posterior.json", post.to_json_dict())
         for name, fig in (("corner", plot_corner(post, names=list(post.names[:4]) + ["R5", "sigma_rel"])),
                           ("bode", plot_bode_bands(post))):
-            fig.savefig(out / f"posterior_{name}.png", dpi=100)
+            save_figure(fig, out / f"posterior_{name}.png", dpi=100)
     _section("outputs")
     for f in sorted(out.iterdir()):
         print(f"  {f}  ({f.stat().st_size / 1024:.0f} kB)")

@@ -138,6 +138,7 @@ def run(args) -> int:
         write_json(args.json, post.to_json_dict())
         print(f"wrote {args.json}")
     if args.plot:
+        from ..plotting import save_figure
         from ..plotting.posterior import plot_bode_bands, plot_corner, plot_trace
 
         folder = Path(args.plot)
@@ -147,6 +148,6 @@ def run(args) -> int:
             plots += (("bode", plot_bode_bands),)
         for name, make in plots:
             path = folder / f"posterior_{stem}_{name}.png"
-            make(post).savefig(path, dpi=100)
+            save_figure(make(post), path, dpi=100)
             print(f"wrote {path}")
     return 0 if post.converged else 1

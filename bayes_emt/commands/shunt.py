@@ -93,6 +93,7 @@ def run(args) -> int:
               f"sampled-data loop {'stable' if r.stable else 'UNSTABLE'} (max |z| = {r.max_pole_abs:.6f}; "
               f"plant: {r.plant_used})")
     if args.plot:
+        from ..plotting import save_figure
         from ..plotting.shunt import plot_attenuation_map, plot_receptance
 
         folder = Path(args.plot)
@@ -100,7 +101,7 @@ def run(args) -> int:
         for name, fig in (("receptance", plot_receptance(d, model, theta)),
                           ("attenuation_map", plot_attenuation_map(d, model, theta))):
             path = folder / f"shunt_{model.name}_{name}.png"
-            fig.savefig(path, dpi=120)
+            save_figure(fig, path, dpi=120)
             print(f"  wrote {path}")
     if args.json:
         write_json(args.json, out)

@@ -3,3 +3,26 @@
 Functions take results and an optional ``ax``, reject unknown keywords, return the figure, and
 never call ``plt.show()``.
 """
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["save_figure"]
+
+
+def save_figure(fig, path: str | Path, dpi: int = 100) -> Path:
+    """Write ``fig`` to ``path`` atomically (format from the suffix) and release its memory.
+
+    A crash mid-write leaves the previous file, never half an image; the figure is closed after,
+    so a command that draws many figures does not accumulate them.
+    """
+    import matplotlib.pyplot as plt
+
+    from .._atomic import atomic_path
+
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
+    plt.close(fig)
+    return path
