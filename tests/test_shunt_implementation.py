@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from nl_circuit import nl_inductance_matrix
 from scipy import optimize
 from scipy.linalg import expm
 
@@ -49,12 +50,7 @@ def _independent_sampled_loop(Rs, Cs, fs, delay, p=PAPER_TABLES["NL"], n=5, N=48
     matrix exponential, the controller as a difference equation from its Tustin coefficients."""
     R_in, K_in, K_out = TABLE7.values()
     g = R_in * K_in * K_out
-    Pv = np.array([p[f"P{j}"] for j in range(1, n + 1)])
-    Rv = np.array([p[f"R{j}"] for j in range(1, n + 1)])
-    D = np.tril(np.ones((n, n)))
-    b = N * (D @ Pv)
-    L = np.block([[np.array([[N**2 * (p["Pg"] + Pv.sum())]]), b[None, :]],
-                  [b[:, None], D @ np.diag(Pv) @ D.T]])
+    L, Rv = nl_inductance_matrix(p, n, N)
     Li = np.linalg.inv(L)
     k = 2 + 1 + n
     A = np.zeros((k, k))

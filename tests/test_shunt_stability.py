@@ -3,6 +3,7 @@ time-domain simulation, exact poles, the argument principle and the Bessel model
 
 import numpy as np
 import pytest
+from nl_circuit import nl_inductance_matrix
 from scipy import special
 from scipy.linalg import expm
 
@@ -28,12 +29,7 @@ def nl_physical_state_matrix(Rs, Cs, p=PAPER_TABLES["NL"], n=5, N=480.0):
     """The RC-shunted NL system from its inductance matrix (SPEC.md §2, eq. 41's circuit), built
     independently of the package's modal/Foster pole code. States: x̄, v̄ (mass-normalised),
     capacitor voltage, coil current, ring currents."""
-    Pv = np.array([p[f"P{j}"] for j in range(1, n + 1)])
-    Rv = np.array([p[f"R{j}"] for j in range(1, n + 1)])
-    D = np.tril(np.ones((n, n)))
-    b = N * (D @ Pv)
-    L = np.block([[np.array([[N**2 * (p["Pg"] + Pv.sum())]]), b[None, :]],
-                  [b[:, None], D @ np.diag(Pv) @ D.T]])
+    L, Rv = nl_inductance_matrix(p, n, N)
     R = np.diag(np.r_[p["R0"] + Rs, Rv])
     z, w0, ph = p["zeta"], p["omega0"], p["phi"]
     k = 3 + n + 1
