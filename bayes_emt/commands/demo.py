@@ -118,5 +118,8 @@ def run(args) -> int:
             save_figure(fig, out / f"posterior_{name}.png", dpi=100)
     _section("outputs")
     for f in sorted(out.iterdir()):
-        print(f"  {f}  ({f.stat().st_size / 1024:.0f} kB)")
+        print(f"  {f.resolve()}  ({f.stat().st_size / 1024:.0f} kB)")
+    if not args.no_sample and not post.converged:
+        print("the posterior did NOT converge within the budget (see above): exit code 1")
+        return 1
     return 0
