@@ -384,7 +384,7 @@ _DEFAULTS: dict[str, tuple[str, str, Prior, str]] = {
     "k": ("N/m", r"$k$", LogUniform(1e-6, 1e10), "mechanical stiffness"),
     "phi_raw": ("N/A", r"$\varphi$", LogUniform(1e-6, 1e4), "electromechanical coupling (force factor Bl)"),
 }
-_RING = re.compile(r"^([PR])(\d+)$")
+_RING = re.compile(r"^([PR])([1-9]\d*)$")  # ring j = 1..n; "R0" is the coil, not a ring
 
 
 def default_spec(name: str) -> ParamSpec:

@@ -70,3 +70,48 @@ def test_same_name_same_prior_across_models():
     for m in ("II", "III", "UD", "UL"):
         for n in shared:
             assert build_model(m).params[n] == specs[n]
+
+
+def test_readme_prior_table_is_the_catalogue():
+    # the README's "Default priors" table is documentation users rely on: it must state the priors
+    # the code uses (every "name(s) | unit | log-uniform LO .. HI" cell triple of the table)
+    import re
+    from pathlib import Path
+
+    from bayes_emt.likelihood import NOISE_PARAMS, NU_SPEC
+    from bayes_emt.params import default_spec
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    table = text.split("## Default priors", 1)[1].split("\n## ", 1)[0]
+    noise = {s.name: s for s in NOISE_PARAMS} | {"nu": NU_SPEC}
+    seen = set()
+    for line in table.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        for names, _unit, prior in zip(cells[0::3], cells[1::3], cells[2::3], strict=False):
+            m = re.match(r"log-uniform ([0-9.e+-]+) \.\. ([0-9.e+-]+)", prior)
+            if not m or "/" in names:
+                continue
+            for name in (n.strip() for n in names.split(",")):
+                spec = noise[name] if name in noise else default_spec(name.replace("j", "1"))
+                d = spec.prior.to_dict()
+                assert d["dist"] == "loguniform", name
+                assert (d["lower"], d["upper"]) == (float(m.group(1)), float(m.group(2))), name
+                seen.add(name)
+    assert seen == {"zeta", "omega0", "phi", "R0", "L0", "Rmu", "alpha", "beta", "Lg", "Pg", "Pj", "Rj",
+                    "phi_raw", "sigma_rel", "sigma_abs", "nu"}
+
+
+def test_coil_resistance_is_not_a_ring():
+    # regression: "R0" matched the ring pattern R<j> and got ring 0's prior (1e-12..100 ohm,
+    # "eddy-current resistance of core ring 0"), capping the coil's DC resistance at 100 ohm
+    from bayes_emt import build_model
+    from bayes_emt.params import default_spec
+
+    for name in ("I", "II", "III", "UD", "NL", "UL"):
+        spec = build_model(name).params["R0"]
+        assert spec.description == "coil DC resistance" and spec.unit == "ohm"
+        assert spec.prior.to_dict() == {"dist": "loguniform", "lower": 1e-3, "upper": 1e4}
+    assert default_spec("R1").description == "eddy-current resistance of core ring 1"
+    assert default_spec("P10").description == "permeance of core ring 10"
+    with pytest.raises(KeyError):
+        default_spec("P0")
