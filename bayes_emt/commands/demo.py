@@ -109,8 +109,9 @@ def run(args) -> int:
             if truth and r["name"] in truth:
                 cover = "yes" if r["q05"] <= truth[r["name"]] <= r["q95"] else "no"
             rows.append((r["name"], f"{r['median']:.4g}", f"{r['q05']:.4g}", f"{r['q95']:.4g}",
-                         f"{r['ess']:.0f}", r["unit"], cover))
-        print_table(rows, ("parameter", "median", "5 %", "95 %", "ESS", "unit", "truth in 90 %"))
+                         f"{r['ess']:.0f}", f"{r['tau']:.0f}", r["unit"], cover))
+        print_table(rows, ("parameter", "median", "5 %", "95 %", "ESS", "tau [steps]", "unit",
+                           "truth in 90 %"))
         post.save(out / "posterior.nc")
         write_json(out / "posterior.json", post.to_json_dict())
         for name, fig in (("corner", plot_corner(post, names=list(post.names[:4]) + ["R5", "sigma_rel"])),
