@@ -29,4 +29,4 @@ def test_save_figure_is_atomic_and_closes(tmp_path):
         save_figure(bad, path)
     assert path.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png"]
-    plt.close(bad)
+    assert not plt.fignum_exists(bad.number)

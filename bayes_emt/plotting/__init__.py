@@ -15,14 +15,16 @@ def save_figure(fig, path: str | Path, dpi: int = 100) -> Path:
     """Write ``fig`` to ``path`` atomically (format from the suffix) and release its memory.
 
     A crash mid-write leaves the previous file, never half an image; the figure is closed after,
-    so a command that draws many figures does not accumulate them.
+    whether or not the write succeeded, so a command that draws many figures does not accumulate them.
     """
     import matplotlib.pyplot as plt
 
     from .._atomic import atomic_path
 
     path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
-    plt.close(fig)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
+    finally:
+        plt.close(fig)
     return path
