@@ -4,8 +4,8 @@ total, core issue acceptance 7), and one NL(5) fit."""
 import warnings
 
 from bayes_emt import build_model
-from bayes_emt.datasets import load_paper_bench
-from bayes_emt.fitting import fit_admittance
+from bayes_emt.estimation.fitting import fit_admittance
+from bayes_emt.io.datasets import load_paper_bench
 from bayes_emt.models import MODEL_NAMES
 
 _data = {}

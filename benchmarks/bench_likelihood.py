@@ -4,8 +4,8 @@
 import numpy as np
 
 from bayes_emt import build_model
-from bayes_emt.datasets import load_paper_bench
-from bayes_emt.likelihood import Likelihood
+from bayes_emt.inference.likelihood import Likelihood
+from bayes_emt.io.datasets import load_paper_bench
 from bayes_emt.reference import PAPER_TABLES
 
 _cases = {}

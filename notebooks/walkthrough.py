@@ -9,8 +9,8 @@
 import numpy as np
 
 from bayes_emt import build_model
-from bayes_emt.datasets import load_paper_bench
-from bayes_emt.fitting import fit_admittance
+from bayes_emt.io.datasets import load_paper_bench
+from bayes_emt.estimation.fitting import fit_admittance
 from bayes_emt.shunt import design_rc_shunt
 
 meas = load_paper_bench()
@@ -38,7 +38,7 @@ print(f"Rs = {d.Rs:.4f} ohm, Cs = {d.Cs:.4f} F, {d.attenuation_db:.1f} dB; "
 # %% [markdown]
 # ## The posterior (about two minutes on two cores)
 # ```python
-# from bayes_emt.sampling import sample_posterior
+# from bayes_emt.inference.sampling import sample_posterior
 # post = sample_posterior(meas, nl.model, fit=nl, seed=0)
 # post.save("nl_posterior.nc")      # an ArviZ DataTree: az.from_netcdf("nl_posterior.nc")
 # ```

@@ -38,8 +38,8 @@ def one(index: int, seed: int, model_name: str, points: int, max_steps: int, sca
     """Simulate, fit and sample dataset ``index``; return its coverage record."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from bayes_emt import build_model, simulate
+    from bayes_emt.inference.sampling import sample_posterior
     from bayes_emt.reference import PAPER_TABLES
-    from bayes_emt.sampling import sample_posterior
 
     model = build_model(model_name)
     rng = np.random.default_rng([seed, index])

@@ -15,8 +15,8 @@ import warnings
 from pathlib import Path
 
 from bayes_emt import build_model
-from bayes_emt.datasets import REALDATA_FILES, load_realdata
-from bayes_emt.fitting import fit_admittance
+from bayes_emt.estimation.fitting import fit_admittance
+from bayes_emt.io.datasets import REALDATA_FILES, load_realdata
 
 MODELS = ("I", "II", "III", "UD", "NL", "UL")
 

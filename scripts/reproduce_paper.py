@@ -33,10 +33,10 @@ from pathlib import Path
 import numpy as np
 
 from bayes_emt import build_model, simulate
-from bayes_emt.added_mass import physical_from_two_fits
+from bayes_emt.added_mass.fit import physical_from_two_fits
 from bayes_emt.cli import main as cli
-from bayes_emt.fitting import fit_admittance
-from bayes_emt.hankel import select_rings
+from bayes_emt.estimation.fitting import fit_admittance
+from bayes_emt.estimation.hankel import select_rings
 from bayes_emt.io import write_measurement
 from bayes_emt.reference import (
     PAPER_ADDED_MASS,

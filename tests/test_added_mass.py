@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from bayes_emt import build_model, simulate
-from bayes_emt.added_mass import (
+from bayes_emt.added_mass.fit import (
     PHYSICAL_NAMES,
     JointModel,
     _physical_and_jacobian,
@@ -22,11 +22,11 @@ from bayes_emt.added_mass import (
 )
 from bayes_emt.cli import main
 from bayes_emt.errors import FitError
+from bayes_emt.estimation.results import FitResult
 from bayes_emt.io import write_measurement
 from bayes_emt.models import Model
 from bayes_emt.models.catalogue import make_term
 from bayes_emt.reference import PAPER_ADDED_MASS, PAPER_PHYSICAL, PAPER_TABLES
-from bayes_emt.results import FitResult
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata"
 TRUE = {"m": 1.73, "c": 1.92, "k": 4470.0, "phi_raw": 2.51}  # Table B.9, used as a known truth
@@ -239,7 +239,7 @@ def test_joint_fit_standard_errors_cover_the_truth():
 def test_real_added_mass_pair_is_plausible():
     # Dayton LS10-44 10" subwoofer, free air and with 0.100 kg on the cone (realdata/README.md);
     # Hz and radians; very noisy above 1 kHz, so fitted over 10 Hz..1 kHz with the UD coil
-    from bayes_emt.datasets import load_realdata
+    from bayes_emt.io.datasets import load_realdata
 
     b = load_realdata(REAL, "dayton_LS10-44_freeair_run2.txt")
     ld = load_realdata(REAL, "dayton_LS10-44_added100g_run2.txt")

@@ -10,15 +10,14 @@ import numpy as np
 import pytest
 from test_added_mass import TRUE, _pair
 
-from bayes_emt import ConvergenceWarning, build_model
-from bayes_emt.added_mass import JointModel, fit_added_mass
-from bayes_emt.added_mass_posterior import AddedMassLikelihood, AddedMassPosterior, sample_added_mass
+from bayes_emt import ConvergenceWarning, build_model, read_posterior
+from bayes_emt.added_mass.fit import JointModel, fit_added_mass
+from bayes_emt.added_mass.posterior import AddedMassLikelihood, AddedMassPosterior, sample_added_mass
 from bayes_emt.cli import main
+from bayes_emt.inference.likelihood import Likelihood
+from bayes_emt.inference.sampling import SamplerSettings
 from bayes_emt.io import write_measurement
-from bayes_emt.likelihood import Likelihood
-from bayes_emt.posterior import read_posterior
 from bayes_emt.reference import PAPER_TABLES
-from bayes_emt.sampling import SamplerSettings
 
 MODEL = build_model("UD")
 SHARED = {k: v for k, v in PAPER_TABLES["UD"].items() if k not in ("zeta", "omega0", "phi")}

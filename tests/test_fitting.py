@@ -8,7 +8,7 @@ import pytest
 from bayes_emt import IdentifiabilityWarning, build_model, simulate
 from bayes_emt.cli import main
 from bayes_emt.errors import DataFormatError
-from bayes_emt.fitting import (
+from bayes_emt.estimation.fitting import (
     central_jacobian,
     covariance_z,
     fit_admittance,
@@ -175,7 +175,7 @@ def test_a_too_simple_model_keeps_the_resonance_where_the_data_has_it():
     # relative-residual cost is a degenerate optimum (zeta at its bound 2, omega0 ~ 4.6e4 rad/s,
     # the mechanical branch mimicking the eddy-current resistance rise); the fit must keep the
     # transducer's resonance and record the rejected candidate
-    from bayes_emt.datasets import load_paper_bench
+    from bayes_emt.io.datasets import load_paper_bench
 
     meas = load_paper_bench()
     fit = fit_admittance(meas, build_model("I"))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bayes_emt import FitError, build_model, simulate
-from bayes_emt.guess import (
+from bayes_emt.estimation.guess import (
     POOR_RMS,
     InitialEstimate,
     _rational_alpha,

@@ -10,7 +10,7 @@ import pytest
 from bayes_emt import build_model, simulate
 from bayes_emt.cli import main
 from bayes_emt.errors import IdentifiabilityWarning
-from bayes_emt.hankel import (
+from bayes_emt.estimation.hankel import (
     blocked_state_space,
     choose_rings,
     fold_out_of_band,
@@ -168,8 +168,8 @@ def test_two_ring_data_choose_two_rings_quickly():
 
 
 def test_noise_level_is_relative_noise_times_smallest_admittance():
-    from bayes_emt.hankel import noise_level
-    from bayes_emt.results import FitResult
+    from bayes_emt.estimation.hankel import noise_level
+    from bayes_emt.estimation.results import FitResult
 
     m = build_model("NL")
     meas = simulate(m, TABLE5, np.geomspace(1e1, 1e5, 2000), noise=0.002, seed=3)

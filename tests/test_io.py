@@ -9,8 +9,8 @@ import pytest
 
 from bayes_emt import DataFormatError, build_model, simulate
 from bayes_emt.cli import main
-from bayes_emt.datasets import PAPER_BENCH_NOISE, PAPER_BENCH_SEED, load_paper_bench, paper_bench_path
 from bayes_emt.io import read_measurement, write_measurement
+from bayes_emt.io.datasets import PAPER_BENCH_NOISE, PAPER_BENCH_SEED, load_paper_bench, paper_bench_path
 from bayes_emt.reference import PAPER_TABLES
 
 HERE = Path(__file__).parent

@@ -10,8 +10,9 @@ from scipy import stats
 
 from bayes_emt import build_model, simulate
 from bayes_emt.errors import DataFormatError
-from bayes_emt.likelihood import NOISE_PARAMS, NU_SPEC, Likelihood, noise_param_set
-from bayes_emt.priors import apply_prior_file, apply_priors, read_prior_file
+from bayes_emt.inference.likelihood import NOISE_PARAMS, NU_SPEC, Likelihood, noise_param_set
+from bayes_emt.inference.priors import apply_prior_file, apply_priors
+from bayes_emt.io.priorfile import read_prior_file
 from bayes_emt.reference import PAPER_TABLES
 
 OMEGA = np.geomspace(10, 1e5, 120)

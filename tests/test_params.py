@@ -78,7 +78,7 @@ def test_readme_prior_table_is_the_catalogue():
     import re
     from pathlib import Path
 
-    from bayes_emt.likelihood import NOISE_PARAMS, NU_SPEC
+    from bayes_emt.inference.likelihood import NOISE_PARAMS, NU_SPEC
     from bayes_emt.params import default_spec
 
     text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")

@@ -13,11 +13,11 @@ import pytest
 
 from bayes_emt import build_model, simulate
 from bayes_emt.cli import main
+from bayes_emt.inference.likelihood import Likelihood
+from bayes_emt.inference.posterior import Posterior, physical_from_pair, read_posterior
+from bayes_emt.inference.sampling import sample_posterior
 from bayes_emt.io import write_measurement
-from bayes_emt.likelihood import Likelihood
-from bayes_emt.posterior import Posterior, physical_from_pair, read_posterior
 from bayes_emt.reference import PAPER_ADDED_MASS, PAPER_PHYSICAL, PAPER_TABLES
-from bayes_emt.sampling import sample_posterior
 
 OMEGA = np.geomspace(10, 1e5, 200)
 MODEL = build_model("I")
@@ -36,7 +36,7 @@ def post_I(meas_I):
 def test_converged_posterior_agrees_with_least_squares(post_I, meas_I):
     # a well-posed model with Gaussian noise: centre and spread match the least-squares estimate
     # and its standard errors (coverage over many datasets: scripts/calibrate_posterior.py)
-    from bayes_emt.fitting import fit_admittance
+    from bayes_emt.estimation.fitting import fit_admittance
 
     assert post_I.converged and "converged at step" in post_I.message
     assert post_I.n_steps >= 50 * np.max(post_I.tau) and np.min(post_I.ess) >= 1000
@@ -177,7 +177,7 @@ def test_student_t_resists_outliers():
 @pytest.mark.slow
 def test_paper_bench_nl5_converges_with_ess_1000():
     # acceptance: NL(5) on the bundled paper-bench data (Table 5, 0.2 % noise, 2000 points)
-    from bayes_emt.datasets import load_paper_bench
+    from bayes_emt.io.datasets import load_paper_bench
 
     post = sample_posterior(load_paper_bench(), build_model("NL", rings=5), seed=0)
     assert post.converged and post.n_steps >= 50 * np.max(post.tau) and np.min(post.ess) >= 1000

@@ -1,7 +1,7 @@
 """Every real recording fits with every model (acceptance 3 of the core issue).
 
 The recordings are read from ../shared/realdata (never copied here); bands per its README
-(:data:`bayes_emt.datasets.REALDATA_FILES`). Residual table: scripts/realdata_table.py.
+(:data:`bayes_emt.io.datasets.REALDATA_FILES`). Residual table: scripts/realdata_table.py.
 """
 
 import json
@@ -14,8 +14,8 @@ import pytest
 
 from bayes_emt import build_model
 from bayes_emt.cli import main
-from bayes_emt.datasets import REALDATA_FILES, load_realdata
-from bayes_emt.fitting import fit_admittance
+from bayes_emt.estimation.fitting import fit_admittance
+from bayes_emt.io.datasets import REALDATA_FILES, load_realdata
 from bayes_emt.models import MODEL_NAMES
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata"

@@ -14,10 +14,8 @@ import pytest
 
 from bayes_emt import ConvergenceWarning, build_model, simulate
 from bayes_emt.cli import main
-from bayes_emt.io import write_measurement
-from bayes_emt.likelihood import Likelihood
-from bayes_emt.reference import PAPER_TABLES
-from bayes_emt.sampling import (
+from bayes_emt.inference.likelihood import Likelihood
+from bayes_emt.inference.sampling import (
     SamplerSettings,
     SnookerMove,
     default_moves,
@@ -25,6 +23,8 @@ from bayes_emt.sampling import (
     sample_posterior,
     stopping_rule,
 )
+from bayes_emt.io import write_measurement
+from bayes_emt.reference import PAPER_TABLES
 
 OMEGA = np.geomspace(10, 1e5, 150)
 MODEL = build_model("I")
@@ -37,7 +37,7 @@ def meas():
 
 @pytest.fixture(scope="module")
 def fit(meas):
-    from bayes_emt.fitting import fit_admittance
+    from bayes_emt.estimation.fitting import fit_admittance
 
     return fit_admittance(meas, MODEL)
 

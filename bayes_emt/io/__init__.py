@@ -28,8 +28,8 @@ from typing import Literal
 import numpy as np
 
 from .._atomic import atomic_path
-from ..data import Measurement
 from ..errors import DataFormatError
+from ..measurement import Measurement
 from ._rows import read_text
 from .table import NATIVE_HEADER, NATIVE_MARKER, read_table
 from .touchstone import looks_like_touchstone, read_touchstone
@@ -57,7 +57,7 @@ def _options(freq_unit, phase_unit, quantity) -> dict:
 
 def read_measurement(path: str | Path, *, freq_unit: FreqUnit | None = None,
                      phase_unit: PhaseUnit | None = None, quantity: Quantity | None = None) -> Measurement:
-    """Read a measurement file into a :class:`~bayes_emt.data.Measurement` (admittance [S], rad/s).
+    """Read a measurement file into a :class:`~bayes_emt.measurement.Measurement` (admittance [S], rad/s).
 
     Parameters
     ----------

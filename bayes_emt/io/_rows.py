@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data import Measurement
 from ..errors import DataFormatError
+from ..measurement import Measurement
 
 __all__ = ["MIN_POINTS", "read_text", "split_cells", "detect_delimiter", "numeric_rows", "check_rows",
            "finish"]

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data import Measurement
 from ..errors import DataFormatError
+from ..measurement import Measurement
 from ._rows import (
     check_rows,
     detect_delimiter,

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data import Measurement
 from ..errors import DataFormatError
+from ..measurement import Measurement
 from ._rows import check_rows, finish, numeric_rows
 from .header import freq_scale
 

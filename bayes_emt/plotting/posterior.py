@@ -1,6 +1,6 @@
 """Posterior plots: corner plot, Bode plot with posterior-predictive bands, trace with τ history.
 
-Each function takes a :class:`~bayes_emt.posterior.Posterior`, builds a
+Each function takes a :class:`~bayes_emt.inference.posterior.Posterior`, builds a
 ``matplotlib.figure.Figure`` (no pyplot state, never ``show``) and returns it.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..posterior import Posterior
+from ..inference.posterior import Posterior
 
 __all__ = ["plot_corner", "plot_bode_bands", "plot_trace"]
 

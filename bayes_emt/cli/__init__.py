@@ -1,0 +1,59 @@
+"""The ``bayes-emt`` command line.
+
+Sub-commands live one per module in :mod:`bayes_emt.cli.commands`; each module defines
+``register(subparsers)`` which adds its parser and sets ``func=run``. Errors the user can fix
+(bad files, bad options) print one line ``bayes-emt: error: ...`` and exit with code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+import warnings
+
+from ..errors import BayesEMTError
+from . import commands
+
+__all__ = ["main", "build_parser"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="bayes-emt",
+        description="Parameters, uncertainty, evidence and shunt design for electromagnetic "
+                    "transducers from their electrical admittance alone.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name):
+        if info.name.startswith("_"):
+            continue
+        mod = importlib.import_module(f"{commands.__name__}.{info.name}")
+        mod.register(sub)
+    return parser
+
+
+def _showwarning(message, category, filename, lineno, file=None, line=None):
+    print(f"bayes-emt: warning: {message}", file=sys.stderr)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    warnings.showwarning = _showwarning
+    try:
+        rc = args.func(args)
+    except (BayesEMTError, ValueError, KeyError, FileNotFoundError, FileExistsError, IsADirectoryError,
+            PermissionError) as exc:
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        print(f"bayes-emt: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("bayes-emt: interrupted", file=sys.stderr)
+        return 130
+    return int(rc or 0)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,48 @@
+"""``bayes-emt info DATA``: what a measurement file holds.
+
+Reads the file as every other command does (so it is also the quickest check that a file reads,
+and under which units), then prints the point count, the frequency range in Hz and rad/s, the
+|Z| range in ohm and the mechanical resonance (:func:`bayes_emt.estimation.checks.locate_resonance`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._common import add_data_args
+
+
+def register(sub) -> None:
+    p = sub.add_parser("info", help="what a measurement file holds (points, ranges, resonance)")
+    p.add_argument("data", help="measurement file (.zma, CSV/TSV with header, .s1p)")
+    add_data_args(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ...estimation.checks import locate_resonance
+    from ...io import read_measurement
+
+    meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
+                            quantity=args.quantity).select(args.omega_min, args.omega_max)
+    m = meas.meta
+    rep = {"magphase": "magnitude and phase", "reim": "real and imaginary parts",
+           "dbphase": "dB and phase"}.get(m.get("representation"), m.get("representation"))
+    units = "; ".join(f"{k.replace('_', ' ')} {m.get(k)} (from {v})"
+                      for k, v in m.get("units_from", {}).items())
+    print(f"file        {meas.source}  ({m.get('format')})")
+    print(f"read as     {m.get('quantity')}, {rep}" + (f"; {units}" if units else ""))
+    for note in m.get("notices", ()):
+        print(f"notice      {note}")
+    print(f"points      {meas.n_points}")
+    print(f"frequency   {meas.f_hz[0]:.5g} .. {meas.f_hz[-1]:.5g} Hz  "
+          f"({meas.omega[0]:.5g} .. {meas.omega[-1]:.5g} rad/s)")
+    absz = np.abs(meas.Z)
+    print(f"|Z|         {absz.min():.5g} .. {absz.max():.5g} ohm")
+    res = locate_resonance(meas)
+    if res is None:
+        print("resonance   none found in this band (zeta, omega0, phi not identifiable)")
+    else:
+        print(f"resonance   {res.omega / (2 * np.pi):.5g} Hz ({res.omega:.5g} rad/s), "
+              f"|Z| = {absz[res.index]:.5g} ohm")
+    return 0

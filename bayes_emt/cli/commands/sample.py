@@ -1,0 +1,154 @@
+"""``bayes-emt sample DATA --model M``: the posterior by emcee, started from the least-squares fit.
+
+Prints the credible-interval table (median, 5 %, 95 %, ESS, τ, unit), writes the ArviZ
+``DataTree`` (netCDF), optionally a JSON summary and plots. With ``--loaded FILE --delta-m KG``
+both recordings of an added-mass pair are sampled jointly (shared m, c, k, φ, R0 and coil; each
+run its own noise scales): the table then starts with the physical m [kg], c [N s/m], k [N/m]
+and φ [N/A]. Exit status 0 when the run
+converged, 1 when the step budget ran out first (the result is then flagged, not trusted),
+2 on a user error.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ._common import add_data_args, add_model_args, print_table
+
+
+def _nu(text: str) -> float | None:
+    if text.lower() in ("sample", "sampled", "free"):
+        return None
+    try:
+        val = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number or 'sample', got {text!r}") from None
+    if not val > 0:
+        raise argparse.ArgumentTypeError(f"degrees of freedom must be positive, got {text!r}")
+    return val
+
+
+def register(sub) -> None:
+    p = sub.add_parser("sample", help="posterior by emcee with convergence diagnostics (DataTree out)",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("data", help="measurement file")
+    add_model_args(p)
+    add_data_args(p)
+    p.add_argument("--out", default=None,
+                   help="netCDF DataTree output (default: DATA stem + _MODEL.nc in the current folder)")
+    p.add_argument("--checkpoint", default=None,
+                   help="HDF5 checkpoint, written every step (default: the --out path with .h5)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the run in the checkpoint (same data, model, priors and seed)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing checkpoint")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--max-steps", type=int, default=20000, help="step budget (default 20000)")
+    p.add_argument("--likelihood", choices=["gaussian", "student"], default="gaussian",
+                   help="noise distribution of the real and imaginary parts (student: robust to outliers)")
+    p.add_argument("--nu", type=_nu, default=4.0,
+                   help="Student-t degrees of freedom, or 'sample' to sample it (default 4)")
+    p.add_argument("--priors", default=None, metavar="FILE",
+                   help="TOML/JSON prior overrides, e.g. [R0] dist = \"lognormal\" median = 2.6 "
+                        "sigma_log = 0.05")
+    p.add_argument("--loaded", default=None, metavar="FILE",
+                   help="second recording of an added-mass pair (DATA is then the base run): sample both "
+                        "jointly for the physical m, c, k, phi_raw")
+    p.add_argument("--delta-m", type=float, default=None, metavar="KG",
+                   help="mass added in the --loaded recording [kg] (negative: removed)")
+    p.add_argument("--json", default=None, metavar="OUT", help="write the summary as JSON here")
+    p.add_argument("--plot", default=None, metavar="DIR", help="write corner, Bode-band and trace PNGs here")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from ...added_mass.fit import PHYSICAL_NAMES
+    from ...errors import DataFormatError
+    from ...inference.likelihood import noise_param_set
+    from ...inference.priors import apply_priors
+    from ...inference.sampling import sample_posterior
+    from ...io import read_measurement
+    from ...io.paramfile import write_json
+    from ...io.priorfile import read_prior_file
+    from ...models import build_model
+    from ...params import prior_from_dict
+
+    if (args.loaded is None) != (args.delta_m is None):
+        raise ValueError("--loaded and --delta-m go together: the added-mass pair needs the second "
+                         "recording and the mass added to it [kg]")
+    opts = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity}
+    meas = read_measurement(args.data, **opts).select(args.omega_min, args.omega_max)
+    loaded = None if args.loaded is None else read_measurement(args.loaded, **opts).select(args.omega_min,
+                                                                                          args.omega_max)
+    model = build_model(args.model, rings=args.rings, n_turns=args.n_turns)
+    nu = args.nu if args.likelihood == "student" else 4.0
+    if loaded is not None and nu is None:
+        raise ValueError("--nu sample is not offered with --loaded; give a number of degrees of freedom")
+    noise = noise_param_set(args.likelihood, nu)
+    physical = None
+    if args.priors:
+        overrides = read_prior_file(args.priors)
+        if loaded is not None:
+            from ...added_mass.fit import JointModel
+
+            phys = {}
+            for name in [n for n in PHYSICAL_NAMES if n in overrides]:
+                try:
+                    phys[name] = prior_from_dict(overrides.pop(name), where=f"{args.priors}: {name}")
+                except (ValueError, TypeError) as exc:
+                    msg = str(exc)
+                    raise DataFormatError(msg if msg.startswith(f"{args.priors}: {name}")
+                                          else f"{args.priors}: {name}: {msg}") from None
+            physical = JointModel(model, args.delta_m).physical.with_priors(phys)
+        model, noise = apply_priors(model, overrides, noise_params=noise, where=str(args.priors))
+    stem = model.label.replace("(", "").replace(")", "") + ("_pair" if loaded is not None else "")
+    out = Path(args.out or f"{Path(args.data).stem}_{stem}.nc")
+    ckpt = Path(args.checkpoint) if args.checkpoint else out.with_suffix(".h5")
+    if ckpt.resolve() == out.resolve():
+        raise ValueError(f"{out}: the checkpoint and the output must be different files")
+    common = {"seed": args.seed, "max_steps": args.max_steps, "checkpoint": ckpt, "resume": args.resume,
+              "overwrite": args.overwrite, "progress": False if args.quiet else None,
+              "likelihood": args.likelihood, "nu": nu, "noise_params": noise}
+    if loaded is None:
+        post = sample_posterior(meas, model, **common)
+        print(f"model {model.label}, {meas.n_points} points, likelihood {post.likelihood.describe()}")
+    else:
+        from ...added_mass.posterior import sample_added_mass
+
+        post = sample_added_mass(meas, loaded, args.delta_m, model, physical_params=physical, **common)
+        print(f"added-mass pair {args.data} + {args.loaded} (added {args.delta_m:+g} kg), "
+              f"model {model.label}, "
+              f"{meas.n_points} + {loaded.n_points} points, likelihood {post.likelihood.describe()}")
+    print(f"{post.n_steps} steps x {post.n_walkers} walkers, tau_max {max(post.tau):.0f} steps, "
+          f"burn {post.burn}, thin {post.thin}, {post.draws.shape[0] * post.draws.shape[1]} draws kept, "
+          f"acceptance {post.acceptance:.2f}, {post.wall_time:.1f} s")
+    print(("CONVERGED: " if post.converged else "NOT CONVERGED: ") + post.message)
+    rows = [(r["name"], f"{r['median']:.5g}", f"{r['q05']:.5g}", f"{r['q95']:.5g}", f"{r['ess']:.0f}",
+             f"{r['tau']:.0f}", r["unit"]) for r in post.summary_rows()]
+    units = post.derived_units()
+    for name, vals in post.derived().items():
+        q = np.quantile(vals, [0.5, 0.05, 0.95])
+        rows.append((f"{name} (derived)", f"{q[0]:.5g}", f"{q[1]:.5g}", f"{q[2]:.5g}", "", "", units[name]))
+    print_table(rows, ("parameter", "median", "5 %", "95 %", "ESS", "tau", "unit"))
+    post.save(out)
+    print(f"wrote {out} (ArviZ DataTree; checkpoint {ckpt})")
+    if args.json:
+        write_json(args.json, post.to_json_dict())
+        print(f"wrote {args.json}")
+    if args.plot:
+        from ...plotting import save_figure
+        from ...plotting.posterior import plot_bode_bands, plot_corner, plot_trace
+
+        folder = Path(args.plot)
+        folder.mkdir(parents=True, exist_ok=True)
+        plots = (("corner", plot_corner), ("trace", plot_trace))
+        if loaded is None:
+            plots += (("bode", plot_bode_bands),)
+        for name, make in plots:
+            path = folder / f"posterior_{stem}_{name}.png"
+            save_figure(make(post), path, dpi=100)
+            print(f"wrote {path}")
+    return 0 if post.converged else 1

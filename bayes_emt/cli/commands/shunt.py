@@ -1,0 +1,109 @@
+"""``bayes-emt shunt``: H∞-optimal RC shunt, stability, cross-model evaluation, digital realisation.
+
+The model is taken from the parameter file (``{"model", "rings"?, "parameters"}``, as ``fit --json``
+writes); ``--model`` is optional and, when given, must name the file's model (a check, not an
+override). ``--r-in/--k-in/--k-out/--fs/--delay`` require ``--implement``.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from ...models import MODEL_NAMES
+
+TABLE7 = {"r_in": 0.0996, "k_in": 99.23, "k_out": 0.9846, "fs": 5000.0}
+
+
+def register(sub) -> None:
+    p = sub.add_parser("shunt", help="optimal RC shunt for a parameter file (SPEC §4)",
+                       description=__doc__.split("\n\n", 1)[1])
+    p.add_argument("--params", required=True, metavar="P.json",
+                   help='parameter file {"model", "rings"?, "parameters"} (as fit --json writes)')
+    p.add_argument("--model", default=None, type=str.upper, choices=list(MODEL_NAMES),
+                   help="optional check: the model the parameter file must hold")
+    p.add_argument("--json", default=None, metavar="OUT", help="write the design as JSON here")
+    p.add_argument("--evaluate-on", default=None, metavar="P2.json",
+                   help="also evaluate the design on another parameter file (e.g. the best model)")
+    p.add_argument("--implement", action="store_true",
+                   help="discretise the controller (eqs. 55-56, Tustin) and evaluate it")
+    p.add_argument("--r-in", type=float, default=None, help="sense resistor R_in [ohm] (Table 7: 0.0996)")
+    p.add_argument("--k-in", type=float, default=None, help="input gain K_in (Table 7: 99.23)")
+    p.add_argument("--k-out", type=float, default=None, help="output gain K_out (Table 7: 0.9846)")
+    p.add_argument("--fs", type=float, default=None, help="DSP sample rate [Hz] (Table 7: 5000)")
+    p.add_argument("--delay", type=int, nargs="?", const=1, default=None, metavar="SAMPLES",
+                   help="computation delay in samples (flag alone: 1; default 0)")
+    p.add_argument("--plot", default=None, metavar="DIR", help="write receptance and attenuation-map PNGs")
+    p.set_defaults(func=run)
+
+
+def _fmt_margin(ev) -> str:
+    extra = ""
+    if ev.max_pole_real is not None:
+        extra = f"; max Re(pole) {ev.max_pole_real:.4g} 1/s, min damping ratio {ev.min_damping_ratio:.3f}"
+    return (f"stable: {'yes' if ev.stable else 'NO'}; unstable below Rs = {ev.Rs_instability:.5f} ohm "
+            f"(margin {ev.stability_margin:.4f} ohm{extra})")
+
+
+def run(args) -> int:
+    from ...errors import DataFormatError
+    from ...io.paramfile import read_param_file, write_json
+    from ...shunt import design_rc_shunt, evaluate_rc_shunt
+    from ...shunt.implementation import realise_rc_shunt
+
+    rig = {k: getattr(args, k) for k in ("r_in", "k_in", "k_out", "fs")}
+    if not args.implement and (any(v is not None for v in rig.values()) or args.delay is not None):
+        raise ValueError("--r-in, --k-in, --k-out, --fs and --delay apply to --implement only")
+    model, theta = read_param_file(args.params)
+    if args.model is not None and args.model != model.name:
+        raise DataFormatError(f"{args.params}: holds model {model.name}, but --model {args.model} was given")
+    d = design_rc_shunt(model, theta)
+    out = d.to_json_dict()
+    out["params"] = str(args.params)
+    out["units"] = {"Rs": "ohm", "Cs": "F", "attenuation_db": "dB", "peak": "s^2 (mass-normalised m*G)",
+                    "peak_omega": "rad/s", "Rs_instability": "ohm", "stability_margin": "ohm",
+                    "max_pole_real": "1/s"}
+    cf = d.closed_form
+    print(f"model {model.label} ({args.params}): H-infinity optimal RC shunt ({d.optimum})")
+    print(f"  Rs = {d.Rs:.5f} ohm, Cs = {d.Cs:.5g} F: attenuation {d.attenuation_db:.3f} dB "
+          f"(peak at {d.peak_omega:.4g} rad/s = {d.peak_omega / (2 * math.pi):.4g} Hz)")
+    print(f"  fixed-point closed form: Rs = {cf['Rs']:.5f} ohm, Cs = {cf['Cs']:.5g} F "
+          f"({cf['attenuation_db']:.3f} dB; coil at omega0: L = {cf['L_eq']:.4g} H, "
+          f"R = {cf['R_eq']:.3g} ohm)")
+    print("  " + _fmt_margin(d))
+    if args.evaluate_on:
+        m2, th2 = read_param_file(args.evaluate_on)
+        ev = evaluate_rc_shunt(m2, th2, d.Rs, d.Cs)
+        out["evaluated_on"] = {"params": str(args.evaluate_on), **ev.to_json_dict()}
+        print(f"  on {m2.label} ({args.evaluate_on}): attenuation {ev.attenuation_db:.3f} dB; "
+              + _fmt_margin(ev))
+    if args.implement:
+        rig = {k: (TABLE7[k] if v is None else v) for k, v in rig.items()}
+        r = realise_rc_shunt(model, theta, d.Rs, d.Cs, R_in=rig["r_in"], K_in=rig["k_in"], K_out=rig["k_out"],
+                             fs=rig["fs"], delay_samples=args.delay or 0)
+        out["implementation"] = r.to_json_dict()
+        (b0, b1), (a0, a1) = r.K_s
+        print(f"  controller (56): K(s) = ({b0:.8g} s + {b1:.8g}) / s   "
+              f"[R_in = {r.R_in:g} ohm, K_in = {r.K_in:g}, K_out = {r.K_out:g}]")
+        (b0, b1), (a0, a1) = r.K_z
+        delay = f" z^-{r.delay_samples}" if r.delay_samples else ""
+        print(f"  Tustin at fs = {r.fs:g} Hz: K(z) ={delay} ({b0:.10g} {b1:+.10g} z^-1) / "
+              f"({a0:.10g} {a1:+.10g} z^-1)")
+        print(f"  achieves {r.attenuation_db:.3f} dB (ideal shunt {r.attenuation_ideal_db:.3f} dB); "
+              f"sampled-data loop {'stable' if r.stable else 'UNSTABLE'} (max |z| = {r.max_pole_abs:.6f}; "
+              f"plant: {r.plant_used})")
+    if args.plot:
+        from ...plotting import save_figure
+        from ...plotting.shunt import plot_attenuation_map, plot_receptance
+
+        folder = Path(args.plot)
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, fig in (("receptance", plot_receptance(d, model, theta)),
+                          ("attenuation_map", plot_attenuation_map(d, model, theta))):
+            path = folder / f"shunt_{model.name}_{name}.png"
+            save_figure(fig, path, dpi=120)
+            print(f"  wrote {path}")
+    if args.json:
+        write_json(args.json, out)
+        print(f"wrote {args.json}")
+    return 0

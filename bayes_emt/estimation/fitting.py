@@ -1,0 +1,344 @@
+"""Two-step weighted nonlinear least squares (SPEC §3.2), then an honest covariance.
+
+Residuals ``W(jω) (Y_model − Y_meas)`` are stacked as real and imaginary parts and minimised
+with ``scipy.optimize.least_squares`` (trust-region reflective) in sampling space (log of
+positive parameters, bounded by the prior support), from the automatic initial estimate
+(:mod:`bayes_emt.estimation.guess`):
+
+0. *start-up*: all parameters, relative residuals ``(Y_model − Y_meas)/|Y_meas|``, from the
+   initial estimate and its runners-up (the best end point goes on; NL: from a UL fit through the
+   UL formulas, SPEC §3.1, and from the unfitted uniform-ring estimate). This converges fast and
+   robustly from a linearised estimate, so the paper's steps start near their own optima;
+1. all parameters with ``W = 1/(jω)`` (emphasises the resonance); ``R0`` and ``ω0`` are kept;
+2. the others with ``W = 1`` (the paper's procedure, MATLAB ``lsqnonlin`` there);
+3. *polish*: all parameters with relative residuals again (times the measurement's own weights,
+   if any), from the end of step 2 and — if that scored better — from the end of step 0.
+
+Wherever candidates compete (start-ups, the two polishes), one whose ``ω0`` lies away from the
+resonance the data shows loses to any that places it there, whatever their costs
+(:func:`_resonance_rule`).
+
+Why the polish: the simulator's noise, and an LCR meter's accuracy, are relative to the reading,
+with equal spread in the real and imaginary parts. Only under that weighting is the Jacobian
+covariance ``s² (JᵀJ)⁻¹`` (``s²`` the residual variance) an honest standard error; after the
+paper's steps ``R0`` and ``ω0`` would carry the step-1 values and their errors would belong to a
+differently weighted problem. The step-1 weighting ``1/ω`` also leaves weakly identified
+directions (NL rings) free to drift into a worse valley of the relative objective; starting the
+polish from the step-0 point as well guards against that. Measured over 20 noisy data sets per
+model (0.2 %, tests/test_fitting.py): 69–74 % of the errors lie within one standard error and
+94–98 % within two, as a Gaussian's 68 % and 95 %.
+
+Jacobians are finite differences over parameter sets, evaluated in one vectorised model call:
+forward differences (``k + 1`` sets) inside the optimiser, central ones (``2k`` sets) for the
+final covariance.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+
+import numpy as np
+from scipy import optimize
+
+from ..errors import FitError
+from ..measurement import Measurement
+from ..models import Model, build_model
+from ..models.terms import uniform_rings
+from .checks import check_fit_inputs
+from .guess import find_initial_estimate
+from .results import FitResult
+
+__all__ = ["fit_admittance", "covariance_z", "relative_residuals", "central_jacobian",
+           "forward_jacobian", "batched_least_squares"]
+
+_FD_STEP = 1e-6  # central-difference step in sampling space (relative for log parameters)
+_FWD_STEP = 1e-7  # forward-difference step (≈ sqrt of machine epsilon)
+
+
+def relative_residuals(model: Model, meas: Measurement, theta) -> np.ndarray:
+    """Complex ``(Y_model − Y_meas)/|Y_meas|`` per frequency (dimensionless)."""
+    return (model.admittance(meas.omega, theta) - meas.Y) / np.abs(meas.Y)
+
+
+def central_jacobian(fun_batch, z, step: float = _FD_STEP):
+    """Jacobian ``(m, k)`` of a batched residual ``fun_batch((B, k)) -> (B, m)`` at ``z`` by
+    central differences, all ``2k`` perturbed points in one call."""
+    k = z.size
+    h = step * np.maximum(1.0, np.abs(z))
+    stack = np.repeat(z[None, :], 2 * k, axis=0)
+    idx = np.arange(k)
+    stack[idx, idx] += h
+    stack[k + idx, idx] -= h
+    r = fun_batch(stack)
+    J = (r[:k] - r[k:]) / (2 * h[:, None])
+    return np.where(np.isfinite(J), J, 0.0).T
+
+
+def forward_jacobian(fun_batch, z, step: float = _FWD_STEP, f0=None):
+    """Jacobian ``(m, k)`` of a batched residual by forward differences: the point and its ``k``
+    perturbations in one ``(k + 1, k)`` call (or ``k`` if the residual ``f0`` at ``z`` is given)."""
+    k = z.size
+    h = step * np.maximum(1.0, np.abs(z))
+    stack = np.repeat(z[None, :], k + (f0 is None), axis=0)
+    idx = np.arange(k)
+    stack[idx, idx] += h
+    r = fun_batch(stack)
+    base = r[k] if f0 is None else f0
+    J = (r[:k] - base) / h[:, None]
+    return np.where(np.isfinite(J), J, 0.0).T
+
+
+def batched_least_squares(fun_batch, z0, lo, hi, *, max_nfev: int, tol: float = 1e-14,
+                          jacobian: str = "central"):
+    """``scipy.optimize.least_squares`` (trust-region reflective, bounded) of a batched residual
+    ``fun_batch((B, k)) -> (B, m)``; non-finite residuals are replaced by a large value so the
+    optimiser backs off. ``jacobian``: ``"central"`` or ``"forward"`` differences."""
+
+    def fun(z):
+        r = fun_batch(z[None, :])[0]
+        return np.where(np.isfinite(r), r, 1e10)
+
+    if jacobian == "central":
+        def jac(z):
+            return central_jacobian(fun_batch, z)
+    elif jacobian == "forward":
+        def jac(z):
+            return forward_jacobian(fun_batch, z)
+    else:
+        raise ValueError(f"jacobian must be 'central' or 'forward', got {jacobian!r}")
+    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)  # unbounded (normal/lognormal) priors: inf - inf
+    z0 = np.clip(z0, lo + 1e-9 * width, hi - 1e-9 * width)
+    return optimize.least_squares(fun, z0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
+                                  ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
+
+
+class _Problem:
+    """Weighted residuals over a subset of free parameters (sampling space), batched."""
+
+    def __init__(self, model: Model, meas: Measurement, weight: np.ndarray, free: np.ndarray, z_full):
+        self.model, self.meas = model, meas
+        self.w = weight
+        self.free = free
+        self.z_full = np.array(z_full, float)
+
+    def batch(self, zf):
+        z = np.broadcast_to(self.z_full, zf.shape[:-1] + self.z_full.shape).copy()
+        z[..., self.free] = zf
+        with np.errstate(all="ignore"):
+            d = (self.model.admittance(self.meas.omega, self.model.params.from_z(z)) - self.meas.Y) * self.w
+        return np.concatenate([d.real, d.imag], axis=-1)
+
+    def residuals(self, zf):
+        return self.batch(zf[None, :])[0]
+
+    def cost(self, zf) -> float:
+        r = self.residuals(zf)
+        return float(r @ r) if np.all(np.isfinite(r)) else np.inf
+
+    def solve(self, zf0, lo, hi, max_nfev, tol=1e-14):
+        return batched_least_squares(self.batch, zf0, lo, hi, max_nfev=max_nfev, tol=tol,
+                                     jacobian="forward")
+
+
+def covariance_z(J: np.ndarray, r: np.ndarray, n_params: int) -> np.ndarray | None:
+    """``s² (JᵀJ)⁻¹`` with ``s² = Σr²/(m − k)``; pseudo-inverse via SVD, ``None`` if rank-deficient."""
+    m = r.size
+    if m <= n_params:
+        return None
+    s2 = float(r @ r) / (m - n_params)
+    U, sv, Vt = np.linalg.svd(J, full_matrices=False)
+    if sv[-1] <= sv[0] * 1e-13:
+        return None
+    return (Vt.T / sv**2) @ Vt * s2
+
+
+def _as_theta(model: Model, initial) -> np.ndarray:
+    if isinstance(initial, Mapping):
+        return model.vector(initial)
+    theta = np.asarray(initial, float)
+    if theta.shape != (model.ndim,):
+        raise ValueError(f"initial must have {model.ndim} values for model {model.label}")
+    if not np.all(np.isfinite(model.params.to_z(theta))):
+        raise ValueError(f"initial values for model {model.label} must be finite and positive")
+    return theta
+
+
+def _starts(meas: Measurement, model: Model, initial, max_nfev):
+    """Starting vectors (best first), their provenance, and the record for ``info["initial"]``."""
+    if initial is not None:
+        return [_as_theta(model, initial)], ["user"], {"path": "user"}
+    if model.name == "NL":
+        # SPEC §3.1: NL starts from the uniform-core estimate through the UL formulas; fitting
+        # UL (3 coil parameters) first puts the 2n+1 ring parameters much closer. UL misfits
+        # strongly non-uniform cores, and its fit can then settle on a wrong plant: the unfitted
+        # uniform-ring estimate is a second start
+        ul = fit_admittance(meas, build_model("UL", rings=model.rings, n_turns=model.n_turns),
+                            max_nfev=max_nfev)
+        p = ul.parameters
+        Pg, P, R = uniform_rings(p["Lg"], p["alpha"], p["beta"], model.rings, model.n_turns)
+        ie = find_initial_estimate(meas, model)
+        return ([np.concatenate([ul.theta[:4], [Pg], P, R]), ie.theta],
+                ["UL fit -> uniform rings", ie.path],
+                {"path": "UL fit -> uniform rings", "UL": p, "UL_initial": ul.info.get("initial"),
+                 "alternatives": 1, "alternative_path": ie.path})
+    ie = find_initial_estimate(meas, model)
+    return [ie.theta, *ie.alternatives], [ie.path] + ["runner-up"] * len(ie.alternatives), {
+        "path": ie.path, "band_rad_s": list(ie.band), "rms_rel_residual": ie.rms_rel_residual,
+        "global_stage": ie.details.get("global_stage", False), "alternatives": len(ie.alternatives)}
+
+
+def _resonance_rule(model: Model, resonance):
+    """``plausible(z)``: the candidate's ``ω0`` lies within a factor 2 of the half-prominence band
+    of the resonance the data shows (:func:`~bayes_emt.estimation.checks.locate_resonance`); always true
+    when the data shows none or the model has no ``ω0``.
+
+    A model too poor for the data can score a lower relative-residual cost by spending its
+    mechanical branch on the coil instead (model I on eddy-current data: ``ζ`` at its bound,
+    ``ω0`` above 1e4 rad/s, mimicking the resistance rise): an optimum of the objective that
+    says nothing about the transducer, so such candidates lose to any that places the
+    resonance where the data has it (``info["rejected"]`` records them)."""
+    if resonance is None or "omega0" not in model.names:
+        return lambda z: True
+    i = model.names.index("omega0")
+    lo, hi = 0.5 * min(resonance.omega_lo, resonance.omega), 2.0 * max(resonance.omega_hi, resonance.omega)
+
+    def plausible(z) -> bool:
+        w0 = float(model.params[i].from_z(z[i]))
+        return bool(lo <= w0 <= hi)
+
+    return plausible
+
+
+def _rejection(model: Model, z, cost: float, final, where: str) -> dict:
+    theta = model.params.from_z(z)
+    rms = float(np.sqrt(np.mean(np.abs(final.residuals(z)) ** 2) * 2))
+    return {"where": where, "omega0": float(theta[model.names.index("omega0")]),
+            "zeta": float(theta[model.names.index("zeta")]) if "zeta" in model.names else None,
+            "cost": float(cost), "rms_rel_residual": rms,
+            "why": "omega0 outside the band of the resonance the data shows"}
+
+
+def fit_admittance(meas: Measurement, model: Model, *, initial=None,
+                   omega_range: tuple[float | None, float | None] | None = None,
+                   polish: bool = True, max_nfev: int | None = None) -> FitResult:
+    """Fit ``model`` to ``meas`` from the automatic initial estimate (SPEC §3.1–3.2).
+
+    Parameters
+    ----------
+    meas : measurement (angular frequencies [rad/s], admittance [S]).
+    model : the model to fit.
+    initial : optional start (dict or vector of physical values, SI); default: automatic.
+    omega_range : optional (omega_min, omega_max) [rad/s] to restrict the data.
+    polish : run step 3 (relative residuals, all parameters) after the paper's two steps; without
+        it the estimate is the paper's (step 2) and the covariance is still computed with relative
+        residuals at that point.
+    max_nfev : evaluation budget of the final polish (default 25 per parameter; the intermediate
+        steps get at most 30 per parameter). A polish that runs out reports ``success=False``.
+
+    Returns
+    -------
+    FitResult
+        Physical values, sampling-space covariance ``cov_z`` (relative-residual Jacobian at the
+        estimate, scaled by the residual variance), ``chi2`` = sum of squared relative residuals,
+        rms relative residual, and ``info``: ``initial`` (how the starts were found),
+        ``start_used`` (index of the start whose step 0 scored best), ``path`` (one line: start,
+        steps, where the polish began), ``final_start`` (``"step 2"`` or ``"step 0"``), ``steps``
+        (label, nfev, cost, status, seconds each), ``seconds``, ``at_prior_bound`` (if any),
+        ``rejected`` (candidates with a lower cost but ``ω0`` away from the resonance the data
+        shows, see :func:`_resonance_rule`) and ``resonance_mismatch`` (the estimate itself is).
+
+    Raises
+    ------
+    DataFormatError : too few points for the model.
+    FitError : no initial estimate, or the fit diverged.
+    """
+    t0 = time.perf_counter()
+    if omega_range is not None:
+        meas = meas.select(*omega_range)
+    resonance = check_fit_inputs(meas, model.ndim, label=model.label)
+    k = model.ndim
+    max_nfev = max_nfev or 25 * k
+    starts, labels, info_initial = _starts(meas, model, initial, max_nfev)
+    info: dict = {"initial": info_initial}
+    lo, hi = model.params.bounds_z()
+    s = 1j * meas.omega
+    all_free = np.ones(k, bool)
+    wrel = 1.0 / np.abs(meas.Y)
+    if meas.weights is not None:
+        wrel = wrel * meas.weights
+    steps = []
+
+    def run(z_start, weight, free, label, *, budget, tol):
+        t = time.perf_counter()
+        w = weight / np.sqrt(np.mean(np.abs(weight * meas.Y) ** 2))  # residuals of order one
+        prob = _Problem(model, meas, w, np.flatnonzero(free), z_start)
+        sol = prob.solve(z_start[free], lo[free], hi[free], budget, tol=tol)
+        z = z_start.copy()
+        z[free] = sol.x
+        steps.append({"step": label, "nfev": int(sol.nfev), "cost": float(sol.cost),
+                      "status": int(sol.status), "message": sol.message,
+                      "seconds": time.perf_counter() - t})
+        return z, sol
+
+    # the intermediate steps only hand on a starting point (and R0, omega0): a looser tolerance
+    # and budget; ill-conditioned valleys (NL with 1/s weighting) would otherwise crawl for
+    # thousands of evaluations towards the same end point the polish reaches
+    mid = {"budget": min(max_nfev, 30 * k), "tol": 1e-10}
+    final = _Problem(model, meas, wrel, np.arange(k), np.zeros(k))
+    plausible = _resonance_rule(model, resonance)
+    best = None
+    rejected = []
+    for i, theta0 in enumerate(starts):
+        z, _ = run(model.params.to_z(theta0), wrel, all_free,
+                   f"0: start-up {i}, all parameters, relative residuals", **mid)
+        c = final.cost(z)
+        ok = plausible(z)
+        if not ok:
+            rejected.append(_rejection(model, z, c, final, f"start-up {i}"))
+        # a start-up that puts the resonance where the data has none loses to any that does
+        if best is None or (ok, -c) > (best[3], -best[0]):
+            best = (c, z, i, ok)
+    cost0, z0, info["start_used"], _ = best
+    info["path"] = (f"start {info['start_used']} ({labels[info['start_used']]}) of {len(starts)}, "
+                    "steps 0-2")
+    z, _ = run(z0, 1.0 / np.abs(s), all_free, "1: all parameters, W = 1/s", **mid)
+    keep = np.isin(model.names, ("R0", "omega0"))
+    z, sol = run(z, np.ones(meas.n_points), ~keep, "2: R0, omega0 fixed, W = 1", **mid)
+    info["final_start"] = "step 2"
+    if polish:
+        # the polish works on the relative residuals themselves (no order-one normalisation)
+        t = time.perf_counter()
+        sol = final.solve(z, lo, hi, max_nfev)
+        if final.cost(z0) < 2 * sol.cost or not plausible(sol.x):
+            # the paper's steps ended in a worse valley than the start-up: polish that too
+            alt = final.solve(z0, lo, hi, max_nfev)
+            if (plausible(alt.x), -alt.cost) > (plausible(sol.x), -sol.cost):
+                sol, info["final_start"] = alt, "step 0"
+            elif not plausible(alt.x) and alt.cost < sol.cost:
+                rejected.append(_rejection(model, alt.x, alt.cost, final, "polish from step 0"))
+        if not plausible(sol.x):
+            info["resonance_mismatch"] = True
+        z = sol.x
+        info["path"] += f", polish from {info['final_start']}"
+        steps.append({"step": f"3: polish from {info['final_start']}, all parameters, relative residuals",
+                      "nfev": int(sol.nfev), "cost": float(sol.cost), "status": int(sol.status),
+                      "message": sol.message, "seconds": time.perf_counter() - t})
+    if rejected:
+        info["rejected"] = rejected
+    theta = model.params.from_z(z)
+    if not np.all(np.isfinite(theta)):
+        raise FitError(f"{meas.source}: the fit of model {model.label} diverged")
+    r = final.residuals(z)
+    J = central_jacobian(final.batch, z)
+    rel = relative_residuals(model, meas, theta)
+    info["steps"] = steps
+    info["seconds"] = time.perf_counter() - t0
+    at_bound = [n for n, zi, a, b in zip(model.names, z, lo, hi, strict=True)
+                if np.isclose(zi, a, atol=1e-6) or np.isclose(zi, b, atol=1e-6)]
+    if at_bound:
+        info["at_prior_bound"] = at_bound
+    return FitResult(model=model, theta=theta, cov_z=covariance_z(J, r, k),
+                     chi2=float(r @ r), rms_rel_residual=float(np.sqrt(np.mean(np.abs(rel) ** 2))),
+                     n_points=meas.n_points, success=bool(sol.status > 0), message=str(sol.message),
+                     initial=np.array(starts[0], float), info=info)

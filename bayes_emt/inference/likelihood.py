@@ -1,0 +1,239 @@
+"""The likelihood of a measured admittance, vectorised over parameter sets (walkers).
+
+Noise model (what a metrologist states for an LCR meter or impedance analyser): the real and
+imaginary parts of each measured ``Y_k`` carry independent errors of standard deviation
+
+    σ_k = sqrt((σ_rel |Y_k|)² + σ_abs²) / w_k                                          [S]
+
+a *relative* part ``σ_rel`` [1] (accuracy stated relative to the reading; the simulator's
+``Y (1 + σ (e_r + j e_i))`` is exactly this with ``σ_abs = 0``) and an absolute floor ``σ_abs``
+[S] (noise, cabling, quantisation). ``w_k`` are the measurement's optional per-point weights
+(1 when absent), the same weights the least-squares fit applies to its residuals.
+
+``|Y_k|`` is the **measured** magnitude, not the model's. The noise is a property of the
+instrument reading, so it must not depend on the candidate parameters: with a model-dependent
+scale, a poor parameter set could buy likelihood by predicting a larger |Y| (wider errors), and
+the normalising term ``log σ_k`` would then pull the estimate towards larger admittance. At the
+0.2 % noise of the paper the measured and true |Y| differ by 0.3 % of σ, a second-order effect;
+the calibration script confirms the intervals cover as stated.
+
+Both noise scales are sampled, in log space, with proper log-uniform priors
+(:data:`NOISE_PARAMS`), identical for every model so evidences stay comparable.
+
+Kinds
+-----
+``gaussian``: ``log p_k = −log(2π σ_k²) − |r_k|²/(2σ_k²)`` with ``r_k = Y_model − Y_k``;
+``student``: the real and imaginary parts are independent Student-t with ``ν`` degrees of freedom
+and scale ``σ_k`` (robust to outliers); ``ν`` fixed, or sampled (``nu=None``) with the prior of
+:data:`NU_SPEC`.
+
+The pointwise ``log p_k`` (one value per frequency) feeds PSIS-LOO and the discrepancy analysis;
+:meth:`Likelihood.normalised_residuals` gives ``r_k/σ_k`` for whiteness tests. Every function
+is NaN-free: ``-inf`` outside the prior support or wherever the model cannot be evaluated.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from scipy import special
+
+from ..measurement import Measurement
+from ..models import Model
+from ..params import NOISE_PARAMS, NU_SPEC, ParamSet, noise_param_set
+
+__all__ = ["NOISE_PARAMS", "NU_SPEC", "Likelihood", "LikelihoodKind", "SamplingSpaceDensity",
+           "noise_param_set", "measurement_sha256"]
+
+LikelihoodKind = Literal["gaussian", "student"]
+
+class SamplingSpaceDensity:
+    """Posterior densities in sampling space for any likelihood with ``params`` (a ParamSet
+    carrying the priors) and ``__call__(theta (..., k)) -> total log-likelihood``; shared by
+    :class:`Likelihood` and the joint added-mass likelihood."""
+
+    def log_prob_z(self, z) -> tuple[np.ndarray, np.ndarray]:
+        """``(log posterior, log likelihood)`` at sampling-space points ``z`` of shape ``(W, k)``.
+
+        The log posterior is unnormalised and in sampling space (prior with its log-Jacobian, plus
+        likelihood); both are ``-inf`` outside the prior support, never NaN. The likelihood is
+        only evaluated where the prior is positive.
+        """
+        z = np.atleast_2d(np.asarray(z, float))
+        lp = self.params.log_prior_z(z)
+        post = np.full(z.shape[0], -np.inf)
+        ll = np.full(z.shape[0], -np.inf)
+        ok = np.isfinite(lp)
+        if np.any(ok):
+            ll[ok] = self(self.params.from_z(z[ok]))
+            post[ok] = np.where(np.isfinite(ll[ok]), lp[ok] + ll[ok], -np.inf)
+        return post, ll
+
+    def log_posterior_z(self, z) -> np.ndarray:
+        """Unnormalised log posterior in sampling space, ``(W, k)`` → ``(W,)``."""
+        return self.log_prob_z(z)[0]
+
+    def emcee_log_prob(self, z) -> list[tuple[float, float]]:
+        """emcee's ``log_prob_fn`` with ``vectorize=True`` and one blob (the total log-likelihood).
+
+        emcee 3.1.6 iterates over what a vectorised function returns and takes ``item[0]`` as the
+        walker's log probability and ``item[1:]`` as its blobs, so it needs one ``(lp, blob)``
+        pair per walker; returning ``(lp_array, blob_array)`` fails ("incompatible input
+        dimensions"; tests/test_likelihood.py checks both).
+        """
+        post, ll = self.log_prob_z(z)
+        return list(zip(post.tolist(), ll.tolist(), strict=True))
+
+
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def measurement_sha256(meas: Measurement) -> str:
+    """SHA-256 of a measurement's frequencies, admittances and weights (checkpoint identity)."""
+    return _sha256(meas.omega.tobytes() + meas.Y.tobytes()
+                   + (b"" if meas.weights is None else meas.weights.tobytes()))
+
+
+@dataclass(frozen=True, eq=False)
+class Likelihood(SamplingSpaceDensity):
+    """``log p(Y | θ)`` for one measurement and one model.
+
+    Parameters
+    ----------
+    model : the transducer model (its ``params`` carry the priors).
+    meas : the measurement.
+    kind : ``"gaussian"`` or ``"student"``.
+    nu : Student-t degrees of freedom; ``None`` samples it (prior :data:`NU_SPEC`).
+    noise_params : the noise ParamSet (default :func:`noise_param_set`; to change a prior pass
+        ``noise_param_set(kind, nu).with_priors(...)``, see :mod:`bayes_emt.inference.priors`).
+
+    Attributes
+    ----------
+    params : ``model.params + noise_params``: the sampled vector, noise scales (and ``nu``) last.
+        Every method takes *physical* values of shape ``(..., k)`` with ``k = len(params)``, except
+        the ``*_z`` methods, which take sampling-space values.
+    """
+
+    model: Model
+    meas: Measurement
+    kind: LikelihoodKind = "gaussian"
+    nu: float | None = 4.0
+    noise_params: ParamSet | None = None
+
+    def __post_init__(self):
+        if self.kind not in ("gaussian", "student"):
+            raise ValueError(f"unknown likelihood {self.kind!r}; choose gaussian or student")
+        if self.kind == "student" and self.nu is not None and not (self.nu > 0 and math.isfinite(self.nu)):
+            raise ValueError(f"Student-t degrees of freedom must be a positive number, got {self.nu}")
+        default = noise_param_set(self.kind, self.nu)
+        if self.noise_params is None:
+            object.__setattr__(self, "noise_params", default)
+        elif self.noise_params.names != default.names:
+            raise ValueError(f"noise parameters must be {list(default.names)}, "
+                             f"got {list(self.noise_params.names)}")
+        object.__setattr__(self, "params", self.model.params + self.noise_params)
+        w = np.ones(self.meas.n_points) if self.meas.weights is None else self.meas.weights
+        object.__setattr__(self, "_absY", np.abs(self.meas.Y))
+        object.__setattr__(self, "_w2", np.asarray(w, float) ** 2)
+
+    @property
+    def sample_nu(self) -> bool:
+        """Whether ``nu`` is a sampled parameter (Student-t with ``nu=None``)."""
+        return self.kind == "student" and self.nu is None
+
+    @property
+    def ndim(self) -> int:
+        return len(self.params)
+
+    @property
+    def n_points(self) -> int:
+        return self.meas.n_points
+
+    @property
+    def label(self) -> str:
+        """``source, model M`` (progress bars, warnings)."""
+        return f"{self.meas.source}, model {self.model.label}"
+
+    def describe(self) -> str:
+        """One line naming the noise model (for reports and file attributes)."""
+        if self.kind == "gaussian":
+            return "gaussian, sigma^2 = (sigma_rel |Y_meas|)^2 + sigma_abs^2 per part"
+        nu = "sampled" if self.sample_nu else f"{self.nu:g}"
+        return f"student-t (nu {nu}), scale^2 = (sigma_rel |Y_meas|)^2 + sigma_abs^2 per part"
+
+    # ---- pieces ----------------------------------------------------------------------------
+    def split(self, theta):
+        """``(theta_model, sigma_rel, sigma_abs, nu)`` from physical values ``(..., k)``;
+        ``nu`` is an array when sampled, else the fixed float (or None for gaussian)."""
+        theta = np.asarray(theta, float)
+        k = self.model.ndim
+        nu = theta[..., k + 2] if self.sample_nu else self.nu
+        return theta[..., :k], theta[..., k], theta[..., k + 1], nu
+
+    def sigma(self, sigma_rel, sigma_abs):
+        """Per-frequency std (Student-t: scale) of each part [S], shape ``(..., F)``."""
+        a = np.asarray(sigma_rel, float)[..., None] * self._absY
+        b = np.asarray(sigma_abs, float)[..., None]
+        return np.sqrt((a * a + b * b) / self._w2)
+
+    def residuals(self, theta):
+        """Complex ``Y_model − Y_meas`` [S], shape ``(..., F)``."""
+        th = self.split(theta)[0]
+        with np.errstate(all="ignore"):
+            return self.model.admittance(self.meas.omega, th) - self.meas.Y
+
+    def normalised_residuals(self, theta):
+        """Complex ``(Y_model − Y_meas)/σ_k`` (real and imaginary parts ~ N(0, 1) under the
+        Gaussian model), shape ``(..., F)``: the input of whiteness and discrepancy tests."""
+        _, srel, sabs, _ = self.split(theta)
+        with np.errstate(all="ignore"):
+            return self.residuals(theta) / self.sigma(srel, sabs)
+
+    def predictive(self, theta, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """``(Y_model, Y_replicated)`` [S] at the measured frequencies, each ``(..., F)``: the model's
+        admittance for parameter sets ``theta (..., k)`` and one replicated measurement of each,
+        with noise drawn from this likelihood (Gaussian or Student-t parts of scale ``σ_k``)."""
+        th, srel, sabs, nu = self.split(theta)
+        Ym = self.model.admittance(self.meas.omega, th)
+        sig = self.sigma(srel, sabs)
+        if self.kind == "student":
+            df = np.broadcast_to(np.asarray(nu, float)[..., None] if self.sample_nu else nu, Ym.shape)
+            noise = rng.standard_t(df) + 1j * rng.standard_t(df)
+        else:
+            noise = rng.standard_normal(Ym.shape) + 1j * rng.standard_normal(Ym.shape)
+        return Ym, Ym + sig * noise
+
+    # ---- densities ---------------------------------------------------------------------------
+    def pointwise(self, theta) -> np.ndarray:
+        """Log-likelihood per frequency [nats], shape ``(..., F)``; ``-inf`` where not finite."""
+        _, srel, sabs, nu = self.split(theta)
+        with np.errstate(all="ignore"):
+            r = self.residuals(theta)
+            sig = self.sigma(srel, sabs)
+            if self.kind == "gaussian":
+                ll = -np.log(2 * math.pi * sig * sig) - (r.real**2 + r.imag**2) / (2 * sig * sig)
+            else:
+                nu = np.asarray(nu, float)[..., None] if self.sample_nu else float(nu)
+                c = special.gammaln((nu + 1) / 2) - special.gammaln(nu / 2) - 0.5 * np.log(nu * math.pi)
+                t2 = np.log1p((r.real / sig) ** 2 / nu) + np.log1p((r.imag / sig) ** 2 / nu)
+                ll = 2 * c - 2 * np.log(sig) - (nu + 1) / 2 * t2
+        return np.where(np.isfinite(ll), ll, -np.inf)
+
+    def __call__(self, theta) -> np.ndarray:
+        """Total log-likelihood [nats], shape ``theta.shape[:-1]`` (dynesty's ``loglike`` with
+        ``params.prior_transform`` as its ``prior_transform``)."""
+        return np.sum(self.pointwise(theta), axis=-1)
+
+    def identity(self) -> dict:
+        """What a checkpoint must match to be resumed by this likelihood (data by SHA-256)."""
+        return {"model": self.model.label, "terms": [t.name for t in self.model.terms],
+                "n_turns": self.model.n_turns, "names": list(self.params.names), "likelihood": self.kind,
+                "nu": self.nu, "n_points": self.meas.n_points,
+                "priors_sha256": _sha256(json.dumps(self.params.to_dict(), sort_keys=True).encode()),
+                "data_sha256": measurement_sha256(self.meas), "source": self.meas.source}

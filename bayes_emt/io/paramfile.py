@@ -1,0 +1,72 @@
+"""Parameter files: ``{"model": "UD", "rings": null, "n_turns": 480, "parameters": {...}}``.
+
+The same shape ``bayes-emt fit --json`` writes, so a fit's output feeds ``simulate`` and ``shunt``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import atomic_write_text
+from ..errors import DataFormatError
+from ..models import DEFAULT_N_TURNS, Model, build_model
+
+__all__ = ["read_param_file", "model_from_record", "write_json"]
+
+
+def model_from_record(rec: Mapping, *, where: str = "parameters") -> tuple[Model, np.ndarray]:
+    """Model and parameter vector from a ``{"model", "rings"?, "n_turns"?, "parameters"}`` mapping."""
+    if not isinstance(rec, Mapping):
+        raise DataFormatError(f"{where}: expected a JSON object with 'model' and 'parameters'")
+    for key in ("model", "parameters"):
+        if key not in rec:
+            raise DataFormatError(f"{where}: missing key {key!r}")
+    params = rec["parameters"]
+    if not isinstance(params, Mapping):
+        raise DataFormatError(f"{where}: 'parameters' must be an object of name: value")
+    try:
+        model = build_model(str(rec["model"]), rings=rec.get("rings"),
+                            n_turns=float(rec.get("n_turns") or DEFAULT_N_TURNS))
+    except ValueError as exc:
+        raise DataFormatError(f"{where}: {exc}") from None
+    if model.rings is not None and rec.get("rings") is None:
+        n = sum(1 for k in params if k.startswith("P") and k[1:].isdigit())
+        if n and n != model.rings:
+            model = build_model(model.name, rings=n, n_turns=model.n_turns)
+    try:
+        theta = model.vector({k: float(v) for k, v in params.items()})
+    except (KeyError, TypeError, ValueError) as exc:
+        raise DataFormatError(f"{where}: {exc}") from None
+    bad = [n for n, v in zip(model.names, theta, strict=True) if not math.isfinite(v)]
+    if bad:
+        raise DataFormatError(f"{where}: non-finite value for {bad}")
+    outside = [s.name for s, v in zip(model.params, theta, strict=True)
+               if not np.isfinite(s.prior.logpdf(v))]
+    if outside:
+        raise DataFormatError(f"{where}: value outside the physical range for {outside}")
+    return model, theta
+
+
+def read_param_file(path: str | Path) -> tuple[Model, np.ndarray]:
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise DataFormatError(f"{path}: no such file") from None
+    except UnicodeDecodeError:
+        raise DataFormatError(f"{path}: not a text (JSON) file") from None
+    try:
+        rec = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise DataFormatError(f"{path}: line {exc.lineno}: invalid JSON ({exc.msg})") from None
+    return model_from_record(rec, where=str(path))
+
+
+def write_json(path: str | Path, obj) -> None:
+    """Write ``obj`` as indented JSON, atomically."""
+    atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=False, allow_nan=False) + "\n")
