@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..io.paramfile import param_record
 from ..models import Model
 
 __all__ = ["FitResult"]
@@ -65,10 +66,7 @@ class FitResult:
     def to_json_dict(self) -> dict:
         """The ``bayes-emt fit --json`` record (SPEC §6 names, SI units)."""
         return {
-            "model": self.model.name,
-            "rings": self.model.rings,
-            "n_turns": self.model.n_turns,
-            "parameters": self.parameters,
+            **param_record(self.model, self.theta),
             "stderr": {k: (None if not np.isfinite(v) else v) for k, v in self.stderr.items()},
             "units": dict(zip(self.model.names, self.model.params.units, strict=True)),
             "rms_rel_residual": float(self.rms_rel_residual),

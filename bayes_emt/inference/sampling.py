@@ -178,9 +178,13 @@ def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Ge
     """``nwalkers`` sampling-space points: the first ``len(z0)`` coordinates from ``N(z0, cov)``,
     the rest (noise) from independent normals (``centre``, ``spread``); clipped to the prior
     support of ``target.params``, each with a finite posterior; the ball shrinks if too many fall
-    outside."""
+    outside. Correlations are shrunk to at most 0.99 in magnitude: a parameter the data do not
+    separate from another (a lead resistance beside R0) makes the fit's covariance nearly singular,
+    and walkers drawn from it would be linearly dependent (emcee refuses such a start)."""
     k = len(z0)
-    cov = 0.5 * (cov + cov.T) + np.eye(k) * 1e-12 * np.max(np.abs(np.diag(cov)))
+    cov = 0.5 * (cov + cov.T)
+    cov = 0.99 * cov + 0.01 * np.diag(np.diag(cov))
+    cov = cov + np.eye(k) * 1e-12 * np.max(np.abs(np.diag(cov)))
     lo, hi = target.params.bounds_z()
     out = np.empty((nwalkers, target.ndim))
     filled = 0
@@ -200,6 +204,16 @@ def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Ge
                    "the least-squares fit (check the priors against the fitted values)")
 
 
+def autocorr_time(chain: np.ndarray) -> np.ndarray:
+    """Integrated autocorrelation time [steps] of each parameter of ``chain (steps, walkers, k)``
+    (emcee's estimator, no length check). A walker that has not moved yet makes emcee's estimate
+    NaN (its autocorrelation is 0/0); the parameter's time then counts as the whole chain's length,
+    which fails every convergence criterion, as it should."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        tau = emcee.autocorr.integrated_time(chain, tol=0)
+    return np.where(np.isfinite(tau), tau, float(chain.shape[0]))
+
+
 def stopping_rule(chain: np.ndarray, n: int, settings: SamplerSettings) -> dict:
     """The stopping rule (module docstring) at step ``n``, from ``chain[:n]`` only.
 
@@ -208,11 +222,11 @@ def stopping_rule(chain: np.ndarray, n: int, settings: SamplerSettings) -> dict:
     """
     chain = chain[:n]
     nwalkers = chain.shape[1]
-    tau = emcee.autocorr.integrated_time(chain, tol=0)
+    tau = autocorr_time(chain)
     prev = n - settings.check_every
     change = math.inf
     if prev >= settings.check_every:
-        tau_prev = emcee.autocorr.integrated_time(chain[:prev], tol=0)
+        tau_prev = autocorr_time(chain[:prev])
         change = float(np.max(np.abs(tau - tau_prev) / tau))
     burn = int(math.ceil(2 * np.max(tau)))
     ess = nwalkers * max(n - burn, 0) / tau
@@ -360,7 +374,7 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
     if not verdict["converged"]:
         warnings.warn(f"{target.label}: {message}", ConvergenceWarning, stacklevel=3)
     chain = backend.get_chain()
-    tau = emcee.autocorr.integrated_time(chain, tol=0)
+    tau = autocorr_time(chain)
     burn = min(int(math.ceil(2 * np.max(tau))), chain.shape[0] - 1)
     return {"chain": chain, "log_prob": backend.get_log_prob(), "blobs": backend.get_blobs(), "tau": tau,
             "burn": burn, "max_draws": settings.max_draws,

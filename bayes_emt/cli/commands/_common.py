@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from ...models import MODEL_NAMES
+from ...models import AUGMENTATIONS, MODEL_NAMES
 
-__all__ = ["add_data_args", "add_model_args", "print_table"]
+__all__ = ["add_data_args", "add_model_args", "print_table", "model_from_args", "check_model_matches"]
 
 
 def add_data_args(p: argparse.ArgumentParser) -> None:
@@ -22,10 +22,36 @@ def add_data_args(p: argparse.ArgumentParser) -> None:
 
 
 def add_model_args(p: argparse.ArgumentParser, *, required: bool = True) -> None:
-    p.add_argument("--model", required=required, type=str.upper, choices=list(MODEL_NAMES),
-                   help="coil model (SPEC §2)")
+    p.add_argument("--model", required=required, metavar="SPEC",
+                   help=f"model spec: a coil model ({', '.join(MODEL_NAMES)}, SPEC §2) optionally + physics "
+                        f"terms of SPEC §7 ({', '.join(AUGMENTATIONS)}), e.g. NL+winding_capacitance")
     p.add_argument("--rings", type=int, default=None, help="rings for NL/UL (default 5)")
     p.add_argument("--n-turns", type=float, default=480.0, help="coil turns N (NL/UL; default 480)")
+
+
+def model_from_args(args):
+    """The model named by ``--model``, ``--rings`` and ``--n-turns`` (errors name the option)."""
+    from ...models import parse_model_spec
+
+    try:
+        return parse_model_spec(args.model, rings=args.rings, n_turns=args.n_turns)
+    except ValueError as exc:
+        raise ValueError(f"--model {args.model}: {exc}") from None
+
+
+def check_model_matches(model, spec: str | None, where: str) -> None:
+    """``--model`` given as a check: it must name the model ``where`` holds."""
+    from ...errors import DataFormatError
+    from ...models import parse_model_spec
+
+    if spec is None:
+        return
+    try:
+        wanted = parse_model_spec(spec)
+    except ValueError as exc:
+        raise ValueError(f"--model {spec}: {exc}") from None
+    if wanted.spec != model.spec:
+        raise DataFormatError(f"{where}: holds model {model.spec}, but --model {spec} was given")
 
 
 def print_table(rows: list[tuple], header: tuple) -> None:

@@ -5,7 +5,7 @@ every parameter, the rms relative residual and chi², and writes
 
 from __future__ import annotations
 
-from ._common import add_data_args, add_model_args, print_table
+from ._common import add_data_args, add_model_args, model_from_args, print_table
 
 
 def register(sub) -> None:
@@ -25,11 +25,10 @@ def run(args) -> int:
     from ...estimation.fitting import fit_admittance
     from ...io import read_measurement
     from ...io.paramfile import write_json
-    from ...models import build_model
 
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
                             quantity=args.quantity).select(args.omega_min, args.omega_max)
-    model = build_model(args.model, rings=args.rings, n_turns=args.n_turns)
+    model = model_from_args(args)
     fit = fit_admittance(meas, model)
     se = fit.stderr
     rows = [(s.name, format_value(v), s.unit, format_value(se[s.name]))

@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_data_args, add_model_args, print_table
+from ._common import add_data_args, add_model_args, model_from_args, print_table
 
 
 def _nu(text: str) -> float | None:
@@ -73,7 +73,6 @@ def run(args) -> int:
     from ...io import read_measurement
     from ...io.paramfile import write_json
     from ...io.priorfile import read_prior_file
-    from ...models import build_model
     from ...params import prior_from_dict
 
     if (args.loaded is None) != (args.delta_m is None):
@@ -83,7 +82,7 @@ def run(args) -> int:
     meas = read_measurement(args.data, **opts).select(args.omega_min, args.omega_max)
     loaded = None if args.loaded is None else read_measurement(args.loaded, **opts).select(args.omega_min,
                                                                                           args.omega_max)
-    model = build_model(args.model, rings=args.rings, n_turns=args.n_turns)
+    model = model_from_args(args)
     nu = args.nu if args.likelihood == "student" else 4.0
     if loaded is not None and nu is None:
         raise ValueError("--nu sample is not offered with --loaded; give a number of degrees of freedom")

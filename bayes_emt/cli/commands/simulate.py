@@ -7,7 +7,7 @@ The parameter file is what ``bayes-emt fit --json`` writes (``{"model", "rings",
 
 from __future__ import annotations
 
-from ...models import MODEL_NAMES
+from ._common import check_model_matches
 
 
 def register(sub) -> None:
@@ -16,8 +16,8 @@ def register(sub) -> None:
                                    "and write it as a measurement file.")
     p.add_argument("--params", required=True, help='JSON {"model", "parameters"} (as fit --json writes)')
     p.add_argument("--out", required=True, help="output file (.csv native, or .zma)")
-    p.add_argument("--model", type=str.upper, choices=list(MODEL_NAMES), default=None,
-                   help="check that the parameter file holds this model")
+    p.add_argument("--model", default=None, metavar="SPEC",
+                   help="check that the parameter file holds this model (a spec: UD, NL+winding_capacitance)")
     p.add_argument("--rings", type=int, default=None,
                    help="rings: for UL the discretisation (default: the file's, else 5); "
                         "for NL it must match the file's P1..Pn")
@@ -38,25 +38,24 @@ def _with_rings(model, theta, rings: int | None, where: str):
     if rings is None or rings == model.rings:
         return model, theta
     if model.rings is None:
-        raise DataFormatError(f"{where}: model {model.name} has no rings; drop --rings")
-    if model.name != "UL":
-        raise DataFormatError(f"{where}: holds {model.label} parameters (P1..P{model.rings}), "
-                              f"so --rings {rings} does not fit them")
+        raise DataFormatError(f"{where}: model {model.label} has no rings; drop --rings")
     try:
-        return build_model(model.name, rings=rings, n_turns=model.n_turns), theta
+        other = build_model(model.spec, rings=rings, n_turns=model.n_turns)
     except ValueError as exc:
         raise DataFormatError(f"--rings: {exc}") from None
+    if other.names != model.names:  # the ring parameters themselves are in the file (NL)
+        raise DataFormatError(f"{where}: holds {model.label} parameters (P1..P{model.rings}), "
+                              f"so --rings {rings} does not fit them")
+    return other, theta
 
 
 def run(args) -> int:
-    from ...errors import DataFormatError
     from ...io import write_measurement
     from ...io.paramfile import read_param_file
     from ...io.simulate import log_omega_grid, simulate
 
     model, theta = read_param_file(args.params)
-    if args.model is not None and args.model != model.name:
-        raise DataFormatError(f"{args.params}: holds model {model.name}, but --model {args.model} was given")
+    check_model_matches(model, args.model, args.params)
     model, theta = _with_rings(model, theta, args.rings, args.params)
     omega = log_omega_grid(args.omega_min, args.omega_max, args.points)
     meas = simulate(model, theta, omega, noise=args.noise, seed=args.seed, source=str(args.out))
