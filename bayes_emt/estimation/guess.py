@@ -48,7 +48,7 @@ from ..errors import FitError
 from ..measurement import Measurement
 from ..models import Model
 from ..models import terms as T
-from ..models.linearise import lstsq_real
+from ..models.linearise import lstsq_real, stacked_real
 from .augment import augmentation_starts, rms_rel_residual, validated
 from .checks import locate_resonance
 
@@ -127,13 +127,8 @@ def levy_plant(omega, Y, *, sk_iterations: int = 3) -> np.ndarray:
 def _nonneg_fit(cols, target, w):
     """``min ||w (cols x − target)||`` over real ``x ≥ 0`` for complex ``cols (F, c)``, ``target
     (F,)`` (columns scaled, real and imaginary parts stacked). Returns ``(x, weighted rms)``."""
-    A = cols * w[:, None]
-    b = target * w
-    Ar = np.vstack([A.real, A.imag])
-    br = np.concatenate([b.real, b.imag])
-    scale = np.linalg.norm(Ar, axis=0)
-    scale[scale == 0] = 1.0
-    x, _ = optimize.nnls(Ar / scale, br)
+    As, br, scale = stacked_real(cols, target, w)
+    x, _ = optimize.nnls(As, br)
     x = x / scale
     return x, float(np.sqrt(np.mean(np.abs((cols @ x - target) * w) ** 2)))
 

@@ -8,6 +8,7 @@ and its serialised id; the augmentations of SPEC §7 live in :mod:`bayes_emt.mod
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from scipy import special
@@ -73,10 +74,14 @@ class Inductance(Term):
     physics = "eddy_current"
     description = "coil self-inductance L0 s (model I)"
     signature = "|Z| rising in proportion to frequency, phase toward +90°"
+    #: the parameter, and its start when the linear coil stage gives it 0 (a multiple of the
+    #: plant's low-frequency inductance)
+    param: ClassVar[str] = "L0"
+    fallback_factor: ClassVar[float] = 1.0
 
     @classmethod
     def default_params(cls):
-        return specs("L0")
+        return specs(cls.param)
 
     def evaluate(self, s, v, other):
         return T.inductance(s, col(v, 0))
@@ -85,31 +90,19 @@ class Inductance(Term):
         return FosterPart(G=float(v[0]))
 
     def coil_start(self):
-        return CoilStart(linear={"L0": _s}, fallback={"L0": lambda L_lf: L_lf})
+        k = self.fallback_factor
+        return CoilStart(linear={self.param: _s}, fallback={self.param: lambda L_lf: k * L_lf})
 
 
 @dataclass(frozen=True)
-class GapInductance(Term):
+class GapInductance(Inductance):
     """The air-gap inductance ``Lg s`` [Ω] of model UD."""
 
     id = "gap_inductance"
-    coil = True
-    physics = "eddy_current"
     description = "air-gap inductance Lg s"
     signature = "an inductive part of Z that eddy currents do not damp"
-
-    @classmethod
-    def default_params(cls):
-        return specs("Lg")
-
-    def evaluate(self, s, v, other):
-        return T.inductance(s, col(v, 0))
-
-    def foster(self, v, sections):
-        return FosterPart(G=float(v[0]))
-
-    def coil_start(self):
-        return CoilStart(linear={"Lg": _s}, fallback={"Lg": lambda L_lf: 1e-3 * L_lf})
+    param = "Lg"
+    fallback_factor = 1e-3
 
 
 @dataclass(frozen=True)

@@ -9,18 +9,26 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["lstsq_real", "rational_alpha", "lossy_inductance_linear"]
+__all__ = ["stacked_real", "lstsq_real", "rational_alpha", "lossy_inductance_linear"]
 
 
-def lstsq_real(A, b, w):
-    """Solve ``min ||w (A x − b)||`` over real ``x`` for complex ``A, b`` (columns scaled)."""
+def stacked_real(A, b, w):
+    """The real problem ``min ||w (A x − b)||`` over real ``x`` for complex ``A (F, c)``, ``b (F,)``:
+    real and imaginary parts stacked, columns scaled to unit norm. Returns ``(A_scaled, b, scale)``;
+    the solution of the scaled problem divided by ``scale`` solves the original."""
     Aw = A * w[:, None]
     bw = b * w
     Ar = np.vstack([Aw.real, Aw.imag])
     br = np.concatenate([bw.real, bw.imag])
     scale = np.linalg.norm(Ar, axis=0)
     scale[scale == 0] = 1.0
-    x, *_ = np.linalg.lstsq(Ar / scale, br, rcond=None)
+    return Ar / scale, br, scale
+
+
+def lstsq_real(A, b, w):
+    """Solve ``min ||w (A x − b)||`` over real ``x`` for complex ``A, b`` (columns scaled)."""
+    As, br, scale = stacked_real(A, b, w)
+    x, *_ = np.linalg.lstsq(As, br, rcond=None)
     return x / scale
 
 
