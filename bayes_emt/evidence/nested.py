@@ -15,7 +15,7 @@ Likelihood calls are batched (:class:`~bayes_emt.evidence.batching.BatchingPool`
 of ``target(x (n, k)) -> (n,)`` (e.g. :class:`~bayes_emt.inference.likelihood.Likelihood`).
 
 Defaults (:class:`NestedSettings`): ``bound="multi"`` (Feroz et al. 2009 multi-ellipsoids) with
-``sample="rwalk"`` (random walks inside the bound, ``walks = 20 + k``); 200 live points; the run
+``sample="rwalk"`` (random walks inside the bound, ``walks = 20 + k``); 150 live points (queue of 16); the run
 stops when the estimated evidence left in the live points is below ``dlogz = 0.1`` nat, and the
 live points are then added. A run that hits ``max_calls`` first is flagged ``converged = False``.
 
@@ -65,12 +65,12 @@ class NestedSettings:
     checkpoint_every : seconds between checkpoint writes.
     """
 
-    n_live: int = 200
+    n_live: int = 150
     sample: SampleMethod = "rwalk"
     bound: str = "multi"
     walks: int | None = None
     slices: int | None = None
-    queue_size: int = 32
+    queue_size: int = 16
     dlogz: float = 0.1
     max_calls: int | None = None
     checkpoint_every: float = 60.0
