@@ -76,7 +76,8 @@ class LinearGaussian(SamplingSpaceDensity):
         x = np.atleast_2d(np.asarray(x, float))
         r = self.y[None, :] - x @ self.A.T
         n = self.y.size
-        return -0.5 * np.sum(r * r, axis=1) / self.sigma**2 - n * math.log(self.sigma * math.sqrt(2 * math.pi))
+        norm = n * math.log(self.sigma * math.sqrt(2 * math.pi))
+        return -0.5 * np.sum(r * r, axis=1) / self.sigma**2 - norm
 
     def posterior_draws(self, rng, n):
         return rng.multivariate_normal(self.post_mean, self.post_cov, size=n)

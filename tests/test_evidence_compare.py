@@ -39,7 +39,8 @@ def test_compare_writes_the_issue_schema_and_resumes(data_file, tmp_path, capsys
     assert d["best"] in ("I", "II") and set(d["bayes_factors"]) == {"I/II"}
     assert isinstance(d["warnings"], list)
     assert (tmp_path / "evidence.png").stat().st_size > 0
-    assert list((tmp_path / "cmp_runs").glob("*_posterior.nc")) and list((tmp_path / "cmp_runs").glob("*_nested0.nc"))
+    runs = tmp_path / "cmp_runs"
+    assert list(runs.glob("*_posterior.nc")) and list(runs.glob("*_nested0.nc"))
     capsys.readouterr()
     # a re-run with the same JSON reuses both models (no sampling: fast, identical numbers)
     rc = main(["compare", str(data_file), "--models", "I,II", "--json", str(out), "--seed", "3", *FAST])

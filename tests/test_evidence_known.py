@@ -81,7 +81,8 @@ def _emcee_draws(p, seed, steps=6000):
 def test_bridge_on_emcee_draws_recovers_the_evidence_15d(problem):
     p = problem(15)
     draws, lp, tau_floor, _ = _emcee_draws(p, seed=3)
-    br = bridge_evidence(p.log_posterior_z, p.params, draws, seed=4, log_density_draws=lp, tau_floor=tau_floor)
+    br = bridge_evidence(p.log_posterior_z, p.params, draws, seed=4, log_density_draws=lp,
+                         tau_floor=tau_floor)
     assert abs(br.log_z - p.truth) < 3 * max(br.err, FLOOR), (br.log_z, br.err, p.truth)
 
 

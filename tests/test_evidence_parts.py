@@ -102,7 +102,8 @@ def test_nested_settings_reject_bad_values():
 
 # ---- warp ------------------------------------------------------------------------------------
 def test_warp_round_trips_and_its_jacobian_is_the_derivative():
-    params = ParamSet([ParamSpec("a", "1", "a", LogUniform(1e-3, 1e3)), ParamSpec("b", "1", "b", Normal(0, 1))])
+    params = ParamSet([ParamSpec("a", "1", "a", LogUniform(1e-3, 1e3)),
+                       ParamSpec("b", "1", "b", Normal(0, 1))])
     w = Warp.of(params)
     assert list(w.bounded) == [True, False]
     z = np.array([[0.5, -2.0], [-6.0, 3.0]])
