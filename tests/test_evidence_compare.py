@@ -11,7 +11,7 @@ from bayes_emt.cli import main
 from bayes_emt.io import write_measurement
 from bayes_emt.reference import PAPER_TABLES
 
-FAST = ["--nlive", "20", "--max-steps", "500", "--quiet"]
+FAST = ["--nlive", "20", "--walks", "20", "--max-steps", "500", "--quiet"]
 
 
 @pytest.fixture(scope="module")

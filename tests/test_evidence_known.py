@@ -42,7 +42,7 @@ def test_bridge_recovers_the_analytic_evidence_low_dim(problem):
 @pytest.mark.parametrize("problem", PROBLEMS, ids=lambda c: c.__name__)
 def test_nested_recovers_the_analytic_evidence_low_dim(problem):
     p = problem(3)
-    run = run_nested(p, seed=5, settings=NestedSettings(n_live=100))
+    run = run_nested(p, seed=5, settings=NestedSettings(n_live=100, walks=25))
     assert run.converged
     assert abs(run.log_z - p.truth) < 3 * run.log_z_err, (run.log_z, run.log_z_err, p.truth)
     assert run.n_evaluations > 0 and run.n_batches < run.n_evaluations  # batched calls
@@ -90,5 +90,5 @@ def test_bridge_on_emcee_draws_recovers_the_evidence_15d(problem):
 @pytest.mark.parametrize("problem", PROBLEMS, ids=lambda c: c.__name__)
 def test_nested_recovers_the_evidence_15d(problem):
     p = problem(15)
-    run = run_nested(p, seed=7, settings=NestedSettings(n_live=200))
+    run = run_nested(p, seed=7, settings=NestedSettings(n_live=200, walks=35))
     assert abs(run.log_z - p.truth) < 3 * run.log_z_err, (run.log_z, run.log_z_err, p.truth)

@@ -68,7 +68,7 @@ def test_relay_pickles_by_name_and_needs_its_pool():
 # ---- nested runs -----------------------------------------------------------------------------
 def test_nested_run_is_reproducible_with_its_seed_and_saves_round_trip(tmp_path):
     p = GaussianInBox(2)
-    s = NestedSettings(n_live=40, queue_size=4)
+    s = NestedSettings(n_live=40, walks=20, queue_size=4)
     a, b = run_nested(p, seed=11, settings=s), run_nested(p, seed=11, settings=s)
     assert a.log_z == b.log_z and a.n_calls == b.n_calls
     c = run_nested(p, seed=12, settings=s)
@@ -84,7 +84,7 @@ def test_nested_run_is_reproducible_with_its_seed_and_saves_round_trip(tmp_path)
 def test_nested_checkpoint_resumes_and_refuses_another_run(tmp_path):
     p = LinearGaussian(2, n_obs=10)
     ck = tmp_path / "ck.dynesty"
-    s = NestedSettings(n_live=40, queue_size=4, checkpoint_every=0.0)
+    s = NestedSettings(n_live=40, walks=20, queue_size=4, checkpoint_every=0.0)
     first = run_nested(p, seed=3, settings=s, checkpoint=ck)
     assert ck.exists() and (tmp_path / "ck.dynesty.json").exists()
     again = run_nested(p, seed=3, settings=s, checkpoint=ck, resume=True)  # a finished run: same answer

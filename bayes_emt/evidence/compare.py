@@ -4,9 +4,11 @@ factors, PSIS-LOO beside them and prior sensitivity.
 Per model spec (resolved by :func:`bayes_emt.api.as_model`, never by name here):
 
 1. least-squares fit (:func:`~bayes_emt.estimation.fitting.fit_admittance`);
-2. Laplace at the optimum (:mod:`.laplace`), a fast screen from the fit;
-3. the emcee posterior (:func:`~bayes_emt.inference.sampling.sample_likelihood`, checkpointed);
-4. bridge sampling on its draws (:mod:`.bridge`: both half-splits × ``bridge_seeds`` seeds);
+2. the emcee posterior (:func:`~bayes_emt.inference.sampling.sample_likelihood`, started from the
+   fit, checkpointed);
+3. bridge sampling on its draws (:mod:`.bridge`: both half-splits × ``bridge_seeds`` seeds);
+4. Laplace at the posterior mode (:mod:`.laplace`), a fast screen started from the best draw
+   (from the fit when the posterior is not sampled);
 5. nested sampling from the prior (:mod:`.nested`, checkpointed; ``nested_repeats`` seeds);
 6. PSIS-LOO (:mod:`.loo`) and the evidence with every prior width doubled (:mod:`.sensitivity`).
 

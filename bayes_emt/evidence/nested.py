@@ -15,9 +15,19 @@ Likelihood calls are batched (:class:`~bayes_emt.evidence.batching.BatchingPool`
 of ``target(x (n, k)) -> (n,)`` (e.g. :class:`~bayes_emt.inference.likelihood.Likelihood`).
 
 Defaults (:class:`NestedSettings`): ``bound="multi"`` (Feroz et al. 2009 multi-ellipsoids) with
-``sample="rwalk"`` (random walks inside the bound, ``walks = 20 + k``); 150 live points (queue of 16); the run
-stops when the estimated evidence left in the live points is below ``dlogz = 0.1`` nat, and the
-live points are then added. A run that hits ``max_calls`` first is flagged ``converged = False``.
+``sample="rwalk"`` (random walks inside the bound) of ``walks = 100`` steps per new point, 100
+live points, a queue of 16; the run stops when the estimated evidence left in the live points is
+below ``dlogz = 0.1`` nat, and the live points are then added. A run that hits ``max_calls``
+first is flagged ``converged = False``.
+
+Why 100 walks, not dynesty's ``20 + k``: on the transducer likelihoods (decade-wide log-uniform
+priors, curved ridges in the prior-dominated phase) short walks leave new points correlated
+with their starts and log Z comes out low. Measured on model I (200 points, 0.2 % noise, 7
+parameters), against bridge sampling's 2640.60 ± 0.02 nats: 27 walks gave −4.7 and −3.7 nats
+(n_live 100, seeds 1, 2) and −1.2, −3.5, −4.0 (n_live 200); 100 walks gave −2.5 and −0.5
+(n_live 100). On a correlated 7-D Gaussian in a wide box (H = 61 nats), 27 walks are unbiased
+(+0.6, +0.3, −0.3 standard errors), so the bias is the target's geometry, not the sampler code.
+The cost is ``≈ n_live · H · walks`` calls: about 0.6 M for model I (H ≈ 55 nats).
 
 Checkpoint and resume: dynesty's own state file (a pickle written atomically every
 ``checkpoint_every`` seconds and at the end) beside a JSON identity (data, priors, settings,
@@ -57,7 +67,7 @@ class NestedSettings:
     n_live : live points (statistical error ``≈ sqrt(H/n_live)`` nats).
     sample : dynesty's proposal inside the bound (``rwalk``, ``rslice``, ``slice``, ``unif``).
     bound : dynesty's bounding distribution (``multi``, ``single``, ``none``, ...).
-    walks : random-walk steps per new point (``rwalk``; ``None``: ``20 + k``).
+    walks : random-walk steps per new point (``rwalk``; module docstring for the default).
     slices : slice-sampling steps per new point (``rslice``/``slice``; ``None``: dynesty's default).
     queue_size : proposals evaluated together in one vectorised call.
     dlogz : stop when the evidence left in the live points is below this [nats].
@@ -65,10 +75,10 @@ class NestedSettings:
     checkpoint_every : seconds between checkpoint writes.
     """
 
-    n_live: int = 150
+    n_live: int = 100
     sample: SampleMethod = "rwalk"
     bound: str = "multi"
-    walks: int | None = None
+    walks: int = 100
     slices: int | None = None
     queue_size: int = 16
     dlogz: float = 0.1
@@ -81,6 +91,8 @@ class NestedSettings:
         if self.sample not in ("rwalk", "rslice", "slice", "unif"):
             raise ValueError(f"unknown nested sampling method {self.sample!r}; choose rwalk, rslice, "
                              "slice or unif")
+        if self.walks < 2:
+            raise ValueError(f"walks must be at least 2, got {self.walks}")
         if self.queue_size < 1:
             raise ValueError(f"queue_size must be at least 1, got {self.queue_size}")
         if not self.dlogz > 0:
@@ -243,7 +255,7 @@ def run_nested(target, *, seed: int = 0, settings: NestedSettings = NestedSettin
             kwargs = {}
             method = settings.sample
             if method == "rwalk":
-                method = BatchRWalkSampler(walks=settings.walks or 20 + k)
+                method = BatchRWalkSampler(walks=settings.walks)
             elif settings.slices is not None:
                 kwargs["slices"] = settings.slices
             sampler = dynesty.NestedSampler(

@@ -38,8 +38,8 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--methods", default="laplace,bridge,nested",
                    help="evidence estimators to run (default laplace,bridge,nested)")
-    p.add_argument("--nlive", type=int, default=None, help="nested sampling live points (default 150)")
-    p.add_argument("--walks", type=int, default=None, help="random-walk steps per new point (default 20 + k)")
+    p.add_argument("--nlive", type=int, default=None, help="nested sampling live points (default 100)")
+    p.add_argument("--walks", type=int, default=None, help="random-walk steps per new point (default 100)")
     p.add_argument("--nested-repeats", type=int, default=1, help="nested runs per model (default 1)")
     p.add_argument("--max-steps", type=int, default=None, help="emcee step budget (default 20000)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
