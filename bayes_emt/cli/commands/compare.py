@@ -103,7 +103,7 @@ def run(args) -> int:
     if ringed and rings is not None and len(rings) > 1:
         from dataclasses import replace
 
-        group = [m for m in cmp.models if m.rings is not None and m.name.startswith(ringed[0])]
+        group = [m for m in cmp.models if m.rings is not None and m.name.rsplit("(", 1)[0] == ringed[0]]
         cmp = replace(cmp, rings=ring_choice(meas, group, max_rings=max(7, max(rings))))
     _report(cmp)
     if args.json:
