@@ -60,3 +60,22 @@ def test_compare_user_errors_exit_2_with_one_line(data_file, capsys, argv, messa
     err = capsys.readouterr().err
     assert rc == 2
     assert message in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+NL2 = {**{k: PAPER_TABLES["UD"][k] for k in ("zeta", "omega0", "phi", "R0")},
+       "Pg": 3.4e-9, "P1": 6e-9, "P2": 6e-9, "R1": 6.4e-5, "R2": 2.2e-4}
+
+
+def test_compare_ring_counts_report_evidence_beside_hankel(tmp_path):
+    """NL with --rings 1-2 (Laplace screen only: fast): one entry per ring count and the ring
+    section with the Hankel choice and a sentence comparing the two."""
+    meas = simulate(build_model("NL", rings=2), NL2, np.geomspace(10, 1e5, 80), noise=0.002, seed=2)
+    path = tmp_path / "nl2.csv"
+    write_measurement(meas, path)
+    out = tmp_path / "rings.json"
+    main(["compare", str(path), "--models", "NL", "--rings", "1-2", "--methods", "laplace",
+          "--json", str(out), "--quiet"])
+    d = json.loads(out.read_text())
+    assert [m["name"] for m in d["models"]] == ["NL(1)", "NL(2)"]
+    assert [m["rings"] for m in d["models"]] == [1, 2]
+    assert d["rings"]["hankel"] >= 1 and "agreement" in d["rings"]
