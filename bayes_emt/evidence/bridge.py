@@ -250,5 +250,8 @@ def bridge_evidence(log_density_z, params: ParamSet, draws_z: np.ndarray, *, see
         warn.append("bridge sampling: the Meng-Wong iteration did not converge in some repeats")
     if not np.all(np.isfinite(vals)):
         warn.append("bridge sampling: a repeat gave a non-finite log evidence")
-    return BridgeResult(float(np.mean(vals)), float(np.sqrt(np.mean(errs**2))), float(np.std(vals, ddof=1)),
-                        tuple(reps), calls, proposal, tuple(warn))
+    err, spread = float(np.sqrt(np.mean(errs**2))), float(np.std(vals, ddof=1))
+    if spread > 3 * err + 0.1:
+        warn.append(f"bridge sampling: repeats spread {spread:.2f} nats, more than their error {err:.2f}: "
+                    "the two halves of the walkers describe different posteriors (multimodal or unconverged)")
+    return BridgeResult(float(np.mean(vals)), err, spread, tuple(reps), calls, proposal, tuple(warn))
