@@ -25,7 +25,7 @@ def plot_evidence(comparison, ax=None):
     import numpy as np
 
     if ax is None:
-        fig, ax = plt.subplots(figsize=(1.6 + 1.2 * max(1, len(comparison.models)), 4.0))
+        fig, ax = plt.subplots(figsize=(max(5.0, 1.6 + 1.2 * len(comparison.models)), 4.0))
     else:
         fig = ax.figure
     models = list(comparison.models)
@@ -49,7 +49,7 @@ def plot_evidence(comparison, ax=None):
     ax.axhline(-1.0, color="0.5", lw=0.8, ls="--", label="1 nat below the best")
     ax.set_xticks(x, [m.name for m in models])
     ax.set_ylabel("log Z − log Z$_{best}$ [nats]")
-    ax.set_title(f"log evidence (best {comparison.best}: log Z = {ref:.1f} nats)")
+    ax.set_title(f"log evidence (best {comparison.best}: log Z = {ref:.1f} nats)", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
