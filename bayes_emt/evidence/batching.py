@@ -20,9 +20,9 @@ seeds one per queued job) and receives exactly the likelihood of the point it as
 seeded run is reproducible.
 
 Checkpoints: dynesty pickles its sampler, including the ``loglikelihood`` and ``prior_transform``
-it was given. A transducer model holds lambdas and cannot be pickled, and the pool's threads
-cannot either, so the functions handed to dynesty are :class:`Relay` objects that pickle as a
-name only; :func:`register` binds the name to the live pool again before a checkpoint is loaded.
+it was given. The pool's threads and locks cannot be pickled (nor should a checkpoint carry the
+whole likelihood with its data), so the functions handed to dynesty are :class:`Relay` objects that
+pickle as a name only; :func:`register` binds the name to the live pool again before a checkpoint is loaded.
 """
 
 from __future__ import annotations
