@@ -8,7 +8,9 @@ lag-1 correlation) and the warning codes the fit carries:
   Table 1; the paper's 2000 log points over 1e1..1e5 rad/s, 0.2 % relative complex noise, seeds
   0..N-1), and the bundled dataset fitted with NL(5). ``model_inadequate`` must never fire;
 * inadequate: a driver in a vented box (tests/vented_box.py, SPEC §7 ``enclosure_port``; four
-  loudspeaker-like parameter sets, noise 0.2, 0.5 and 1 %) fitted with UD and NL(5); it must fire.
+  loudspeaker-like parameter sets, noise 0.2, 0.5 and 1 %) fitted with UD and NL(5); it must fire;
+* control: the same four drivers in free air (no port: exactly UD), 0.2 and 1 % noise, fitted
+  with UD; it must not fire.
 
     OMP_NUM_THREADS=1 .venv/bin/python scripts/calibrate_adequacy.py --seeds 20 \\
         --out scripts/results/adequacy_calibration.jsonl
@@ -66,6 +68,11 @@ def cases(seeds: int):
                 def make(case=case, noise=noise, name=name):
                     return simulate_vented_box(case, noise=noise, seed=case), build_model(name)
                 yield "inadequate", f"vented box {case}, noise {noise:g}", make
+    for case in range(len(VENTED_CASES)):
+        for noise in (0.002, 0.01):
+            def make(case=case, noise=noise):
+                return simulate_vented_box(case, noise=noise, seed=case, port=False), build_model("UD")
+            yield "control", f"free air {case}, noise {noise:g}", make
 
 
 def main(argv=None) -> int:
@@ -85,7 +92,7 @@ def main(argv=None) -> int:
         if args.out:
             with open(args.out, "a") as fh:
                 fh.write(json.dumps(rec) + "\n")
-    for pop in ("adequate", "inadequate"):
+    for pop in ("adequate", "inadequate", "control"):
         sel = [r for r in rows if r["population"] == pop]
         fired = sum("model_inadequate" in r["codes"] for r in sel)
         rho = [r["rho_max"] for r in sel]

@@ -48,14 +48,9 @@ emcee's stored random state, which a kill between its attribute writes could lea
 ahead of the stored iteration count. A resume checks that the checkpoint belongs to the same
 model, priors, likelihood, data (SHA-256), seed and walker count, and refuses otherwise.
 
-The checkpoint is opened without HDF5 file locking (and an open that finds the file busy is
-retried): a reader that holds the file open while the run writes it (``h5py.File(path, "r")``
-with locking, HDFView, ``h5ls``) would otherwise make the writer's next open fail with
-``BlockingIOError`` and kill the run. The run is the file's only writer; a reader may see a
-step half written, never the reverse. Read a checkpoint during a run with
-:func:`checkpoint_steps` (read-only, no locking). A run that stops before storing its first step
-(a bad option, an interrupt) removes the checkpoint it created, and a checkpoint that holds no
-step is replaced without ``overwrite``: an empty file never blocks the next run.
+Checkpoints are opened without HDF5 file locking, so a reader never kills the run; a run that
+stores no step removes the checkpoint it created, and a checkpoint holding no step never blocks
+the next run (:mod:`bayes_emt.inference.checkpoint`).
 """
 
 from __future__ import annotations
@@ -70,7 +65,6 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import emcee
-import h5py
 import numpy as np
 from emcee.moves.red_blue import RedBlueMove
 
@@ -79,15 +73,14 @@ from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import Model
 from ..params import ParamSet
+from .checkpoint import GROUP as _GROUP
+from .checkpoint import CheckpointBackend, check_checkpoint, checkpoint_steps, h5_open
 from .likelihood import Likelihood, LikelihoodKind
 from .posterior import Posterior
 
 __all__ = ["SamplerSettings", "SnookerMove", "default_moves", "initial_walkers", "stopping_rule",
            "sample_posterior", "sample_likelihood",
            "run_ensemble", "start_ball", "noise_start", "checkpoint_steps", "check_checkpoint"]
-
-_GROUP = "mcmc"
-_OPEN_TRIES = 100  # a busy checkpoint is retried for up to 100 x 0.05 s
 
 
 @dataclass(frozen=True)
@@ -299,63 +292,6 @@ def _verdict_message(v: dict, max_steps: int, settings: SamplerSettings) -> str:
     return f"not converged within {max_steps} steps: " + ", ".join(why)
 
 
-class _CheckpointBackend(emcee.backends.HDFBackend):
-    """emcee's HDF5 backend, opened without HDF5 file locking and retried while busy (module
-    docstring: a reader must never kill the run)."""
-
-    def open(self, mode="r"):
-        if self.read_only and mode != "r":
-            raise RuntimeError("the checkpoint was opened read-only")
-        f = _h5_open(self.filename, mode)
-        if not self.dtype_set and self.name in f:
-            g = f[self.name]
-            if "chain" in g:
-                self.dtype = g["chain"].dtype
-                self.dtype_set = True
-        return f
-
-
-def _h5_open(path, mode: str) -> h5py.File:
-    """``h5py.File(path, mode)`` without file locking, retried for ~5 s while the file is busy."""
-    for attempt in range(_OPEN_TRIES):
-        try:
-            return h5py.File(path, mode, locking=False)
-        except BlockingIOError:
-            if attempt == _OPEN_TRIES - 1:
-                raise
-            time.sleep(0.05)
-    raise AssertionError("unreachable")
-
-
-def checkpoint_steps(path: str | Path) -> int | None:
-    """Steps stored in a sampler checkpoint (read-only, no file locking: safe while a run writes
-    it), or ``None`` when ``path`` is not a bayes_emt checkpoint."""
-    try:
-        with _h5_open(path, "r") as f:
-            g = f[_GROUP]
-            if "bayes_emt" not in g.attrs:
-                return None
-            return int(g.attrs["iteration"])
-    except (OSError, KeyError, ValueError):
-        return None
-
-
-def check_checkpoint(path: str | Path | None, *, resume: bool, overwrite: bool) -> None:
-    """Refuse, before any work, a checkpoint that cannot be used as asked: ``resume`` without the
-    file, or a file holding steps (or not a checkpoint at all) without ``resume`` or ``overwrite``.
-    A checkpoint holding no step passes (it is replaced)."""
-    if path is None:
-        return
-    path = Path(path)
-    if resume:
-        if not path.exists():
-            raise FileNotFoundError(f"{path}: no checkpoint to resume")
-        return
-    if path.exists() and not overwrite and checkpoint_steps(path) != 0:
-        raise FileExistsError(f"{path}: a checkpoint exists; continue it with --resume, or start "
-                              "afresh with --overwrite (or another --checkpoint)")
-
-
 def _run_identity(target, seed: int, nwalkers: int, settings: SamplerSettings) -> dict:
     return {**target.identity(), "seed": int(seed), "nwalkers": int(nwalkers),
             "reseed_every": settings.reseed_every, "moves": "DE 0.8 + snooker 0.2"}
@@ -363,7 +299,7 @@ def _run_identity(target, seed: int, nwalkers: int, settings: SamplerSettings) -
 
 def _check_resume(path: Path, ident: dict) -> None:
     try:
-        with _h5_open(path, "r") as f:
+        with h5_open(path, "r") as f:
             stored = json.loads(f[_GROUP].attrs["bayes_emt"])
     except (OSError, KeyError, ValueError) as exc:
         raise ValueError(f"{path}: cannot resume: not a bayes_emt sampler checkpoint ({exc})") from None
@@ -390,16 +326,16 @@ def _open_backend(checkpoint, resume, overwrite, ident, nwalkers, ndim, reseed_e
     check_checkpoint(path, resume=resume, overwrite=overwrite)
     if resume:
         _check_resume(path, ident)
-        with _h5_open(path, "a") as f:
+        with h5_open(path, "a") as f:
             g = f[_GROUP]
             g.attrs["iteration"] = (int(g.attrs["iteration"]) // reseed_every) * reseed_every
-        return _CheckpointBackend(str(path), name=_GROUP)
+        return CheckpointBackend(str(path), name=_GROUP)
     if path.exists():
         path.unlink()
-    backend = _CheckpointBackend(str(path), name=_GROUP)
+    backend = CheckpointBackend(str(path), name=_GROUP)
     try:
         backend.reset(nwalkers, ndim)
-        with _h5_open(path, "a") as f:
+        with h5_open(path, "a") as f:
             f[_GROUP].attrs["bayes_emt"] = json.dumps(ident)
     except BaseException:
         path.unlink(missing_ok=True)
