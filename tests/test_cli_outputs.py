@@ -198,3 +198,16 @@ def test_fit_json_and_stdout_carry_the_fits_warnings(tmp_path, capsys):
     codes = [w["code"] for w in rec["warnings"]]
     assert "model_inadequate" in codes and all(set(w) == {"code", "message"} for w in rec["warnings"])
     assert "WARNING [model_inadequate]" in text and "Hz" in text and "rad/s" in text
+
+
+def test_sample_json_carries_the_fits_warnings(tmp_path, capsys):
+    # the walkers start from the least-squares fit: its warnings travel with the posterior
+    from bayes_emt.io.datasets import paper_bench_path
+
+    js = tmp_path / "s.json"
+    rc = main(["sample", str(paper_bench_path()), "--model", "I", "--max-steps", "20", "--quiet",
+               "--out", str(tmp_path / "r.nc"), "--json", str(js)])
+    assert rc == 1
+    codes = [w["code"] for w in json.loads(js.read_text())["warnings"]]
+    assert codes[0] == "model_inadequate" and codes[-1] == "not_converged"
+    assert "WARNING [model_inadequate]" in capsys.readouterr().out

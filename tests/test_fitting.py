@@ -36,6 +36,7 @@ def test_noise_free_recovery_from_data_alone(name, rings, table):
     fit = fit_admittance(meas, model)
     rel = np.abs(fit.theta / truth - 1)
     assert np.max(rel) < (0.01 if name == "NL" else 1e-3), dict(zip(model.names, rel, strict=True))
+    assert fit.warnings == ()  # the exact model: round-off residuals are no misfit (adequacy.NOISE_FLOOR)
     if name == "NL":
         z_fit = model.coil_impedance(meas.omega, fit.theta)
         z_true = model.coil_impedance(meas.omega, truth)

@@ -31,7 +31,9 @@ misfit is smooth in log-frequency (the model's error is an analytic function of 
    imaginary part, ``|d_k|²/(6σ²)`` is χ² with 2 degrees of freedom, whose median is ``2 ln 2``.
    The local noise level ``σ̂_k`` is ``sqrt(median |d|² / (12 ln 2))`` over a running window of
    ``W_σ = clip(n/10, 21, 201)`` points (a median, so a misfit that changes fast over a few
-   points does not inflate it; local, so noise that grows with frequency is allowed for).
+   points does not inflate it; local, so noise that grows with frequency is allowed for), and
+   never below ``NOISE_FLOOR`` = 1e-6 (noise-free data: residuals are round-off and the
+   optimiser's tolerance, not misfit).
 2. *Misfit amplitude.* ``u_k = e_k/σ̂_k`` is white with unit variance per part when the model is
    adequate. ``ρ_k² = mean(|u|²)/2`` over a running window of ``W_s = clip(n/50, 5, 51)`` points
    is the local residual power in units of the noise: 1 for an adequate model.
@@ -81,12 +83,15 @@ from ..measurement import Measurement
 from ..models import Model
 
 __all__ = ["ResidualStructure", "residual_structure", "assess_fit", "RHO_CRIT", "Z_CRIT", "AT_BOUND_FRAC",
-           "Q_RANGE"]
+           "Q_RANGE", "NOISE_FLOOR"]
 
 RHO_CRIT = 3.0  #: local residual rms, in units of the local noise, that counts as "far above"
 Z_CRIT = 5.0  #: runs-test z-score (negative) that counts as structure
 AT_BOUND_FRAC = 1e-3  #: distance to a prior edge, as a fraction of the support's width (sampling space)
 Q_RANGE = (0.5, 1e4)  #: plausible mechanical Q = 1/(2 zeta) of a transducer's resonance
+#: smallest noise level assumed [fraction of |Y|]: no instrument resolves an impedance to 1 ppm, so
+#: residuals below it (noise-free simulations: the optimiser's tolerance, round-off) are no misfit
+NOISE_FLOOR = 1e-6
 _MIN_POINTS = 20  #: fewer points: the residual tests are not attempted
 _RING = re.compile(r"^[PR][1-9]\d*$")  # ring parameters P1..Pn, R1..Rn (R0 is the coil's resistance)
 
@@ -151,8 +156,7 @@ def residual_structure(e: np.ndarray) -> ResidualStructure:
     w_sigma = int(np.clip(n // 10, 21, 201))
     med = _running(d2, min(w_sigma, n - (n + 1) % 2), np.median)
     noise = np.sqrt(med / (12 * math.log(2)))
-    floor = max(float(np.median(noise)) * 1e-3, np.finfo(float).tiny)
-    noise = np.maximum(noise, floor)
+    noise = np.maximum(noise, NOISE_FLOOR)
     u = e / noise
     w_s = int(np.clip(n // 50, 5, 51))
     rho = np.sqrt(_running(np.abs(u) ** 2 / 2, w_s, np.mean))
