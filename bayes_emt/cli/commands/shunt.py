@@ -10,7 +10,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ._common import check_model_matches
+from ..paths import check_outputs
+from ._common import check_model_matches, int_at_least, positive_float
 
 TABLE7 = {"r_in": 0.0996, "k_in": 99.23, "k_out": 0.9846, "fs": 5000.0}
 
@@ -27,14 +28,15 @@ def register(sub) -> None:
                    help="also evaluate the design on another parameter file (e.g. the best model)")
     p.add_argument("--implement", action="store_true",
                    help="discretise the controller (eqs. 55-56, Tustin) and evaluate it")
-    p.add_argument("--r-in", type=float, default=None, help="sense resistor R_in [ohm] (Table 7: 0.0996)")
-    p.add_argument("--k-in", type=float, default=None, help="input gain K_in (Table 7: 99.23)")
-    p.add_argument("--k-out", type=float, default=None, help="output gain K_out (Table 7: 0.9846)")
-    p.add_argument("--fs", type=float, default=None, help="DSP sample rate [Hz] (Table 7: 5000)")
-    p.add_argument("--delay", type=int, nargs="?", const=1, default=None, metavar="SAMPLES",
+    p.add_argument("--r-in", type=positive_float, default=None,
+                   help="sense resistor R_in [ohm] (Table 7: 0.0996)")
+    p.add_argument("--k-in", type=positive_float, default=None, help="input gain K_in (Table 7: 99.23)")
+    p.add_argument("--k-out", type=positive_float, default=None, help="output gain K_out (Table 7: 0.9846)")
+    p.add_argument("--fs", type=positive_float, default=None, help="DSP sample rate [Hz] (Table 7: 5000)")
+    p.add_argument("--delay", type=int_at_least(0), nargs="?", const=1, default=None, metavar="SAMPLES",
                    help="computation delay in samples (flag alone: 1; default 0)")
     p.add_argument("--plot", default=None, metavar="DIR", help="write receptance and attenuation-map PNGs")
-    p.add_argument("--bandwidth", type=float, default=None, metavar="RAD_S",
+    p.add_argument("--bandwidth", type=positive_float, default=None, metavar="RAD_S",
                    help="the shunt realisation's bandwidth [rad/s]: the stability constraint leaves out the "
                         "ideal loop above it (needed with a capacitance across the terminals); default: "
                         "ideal loop")
@@ -57,10 +59,12 @@ def run(args) -> int:
     rig = {k: getattr(args, k) for k in ("r_in", "k_in", "k_out", "fs")}
     if not args.implement and (any(v is not None for v in rig.values()) or args.delay is not None):
         raise ValueError("--r-in, --k-in, --k-out, --fs and --delay apply to --implement only")
+    inputs = [("--params", args.params), ("--evaluate-on", args.evaluate_on)]
+    check_outputs([("--json", args.json)], inputs, folders=[("--plot", args.plot, ())])
     model, theta = read_param_file(args.params)
     check_model_matches(model, args.model, args.params)
-    if args.bandwidth is not None and not (args.bandwidth > 0 and math.isfinite(args.bandwidth)):
-        raise ValueError(f"--bandwidth must be a positive angular frequency [rad/s], got {args.bandwidth}")
+    plots = [f"shunt_{model.spec}_{name}.png" for name in ("receptance", "attenuation_map")]
+    check_outputs([("--json", args.json)], inputs, folders=[("--plot", args.plot, plots)])
     d = design_rc_shunt(model, theta, bandwidth=args.bandwidth)
     out = d.to_json_dict()
     out["params"] = str(args.params)
@@ -104,7 +108,7 @@ def run(args) -> int:
         folder.mkdir(parents=True, exist_ok=True)
         for name, fig in (("receptance", plot_receptance(d, model, theta)),
                           ("attenuation_map", plot_attenuation_map(d, model, theta))):
-            path = folder / f"shunt_{model.spec}_{name}.png"
+            path = folder / f"shunt_{model.spec}_{name}.png"  # the names checked above
             save_figure(fig, path, dpi=120)
             print(f"  wrote {path}")
     if args.json:
