@@ -152,8 +152,13 @@ def run(args) -> None:
     print(held_line("nominal", rep["nominal"]))
     print(held_line("robust", rep["robust"]))
     d = rep["why"]
-    print(f"robust Rs - nominal Rs = {d['delta_Rs_ohm'] * 1e3:+.3f} mOhm ({d['side']}); boundary binds: "
-          f"{d['boundary_binds']} (Spearman margin vs attenuation {d['spearman_margin_attenuation']:+.2f})")
+    st, fr = d["steepness"], d["boundary_side_fraction"]
+    print(f"robust Rs - nominal Rs = {d['delta_Rs_ohm'] * 1e3:+.3f} mOhm ({d['side']}); the stability "
+          f"boundary explains it: {d['boundary_explains']} (boundary-side draws: {100 * fr['all']:.0f} % "
+          "of all, "
+          f"{100 * fr['worst_10pct']:.0f} % of the nominal's worst 10 %; missing a draw's own Rs by "
+          f"{st['delta_ohm'] * 1e3:.3f} mOhm costs {st['loss_down_db']:+.4f} dB down, "
+          f"{st['loss_up_db']:+.4f} up)")
     print("why: " + d["text"])
     print("margins [ohm]: nominal " + ", ".join(f"{k} {v:.4f}" for k, v in d["nominal_margin_ohm"].items())
           + "; robust " + ", ".join(f"{k} {v:.4f}" for k, v in d["robust_margin_ohm"].items()))

@@ -24,46 +24,52 @@ def _m(a) -> dict:
     return {"min": float(np.min(a)), "q05": float(q[0]), "median": float(q[1])}
 
 
-def explain_move(nom, rob, design, held, risk, alpha) -> dict:
-    """Why the robust Rs differs from the nominal one, in terms of the stability boundary: the
-    margin ``Rs − threshold`` [Ω] of each draw (on the design half, which the choice saw)."""
+def explain_move(nom, rob, design, risk, steep: dict, own_margin) -> dict:
+    """Why the robust Rs differs from the nominal one, in terms of the stability boundary.
+
+    A draw is on the *boundary side* of the nominal shunt when the shunt leaves it less margin to
+    its instability threshold than the draw's own optimum does (``own_margin``, [Ω] per draw):
+    its loop is less damped than its own design would make it, and its peak rises steeply. When
+    the nominal shunt's worst draws are mostly boundary-side ones, a risk measure over draws moves
+    Rs up, away from the boundary. ``steep`` holds ``delta_ohm`` (half the 90 % spread of the
+    draws' own optimal Rs) and the median regret [dB] of moving each draw's own optimum by that
+    much down (``loss_down_db``) and up (``loss_up_db``). Everything is on the design half."""
     d_rs, d_lcs = rob.Rs - nom.Rs, math.log(rob.Cs / nom.Cs)
     mn, mr = nom.margin[design], rob.margin[design]
     an, ar = nom.attenuation[design], rob.attenuation[design]
-    k = max(1, int(math.ceil(0.05 * mn.size)))
-    close = np.argsort(mn)[:k]
     side = "less negative" if d_rs > 0 else ("more negative" if d_rs < 0 else "unchanged")
-    med_n, med_r = float(np.median(an)), float(np.median(ar))
-    close_n, close_r = float(np.median(an[close])), float(np.median(ar[close]))
+    qn, qr = quantiles(an, [0.5, 0.95]), quantiles(ar, [0.5, 0.95])
+    worst = an >= quantiles(an, [0.9])[0]
+    closer = mn < own_margin[design]
+    f_all, f_worst = float(np.mean(closer)), float(np.mean(closer[worst]))
+    down, up, delta = steep["loss_down_db"], steep["loss_up_db"], steep["delta_ohm"]
+    boundary = d_rs > 0 and f_worst >= 0.6 and f_worst > f_all
     text = (f"The robust Rs is {abs(d_rs) * 1e3:.3f} mOhm {side} than the nominal "
             f"({nom.Rs:.5f} -> {rob.Rs:.5f} ohm; Cs {nom.Cs:.5g} -> {rob.Cs:.5g} F). Every draw has its "
             "own instability threshold in Rs (minus the real part of the terminal impedance where the "
-            "loop reactance vanishes; a lower R0 raises it one for one). The nominal shunt sits "
-            f"{np.median(mn):.4f} ohm above the median draw's threshold but {np.min(mn):.4f} ohm above "
-            f"the closest draw's (5 % of draws within {quantiles(mn, [0.05])[0]:.4f} ohm). ")
-    rho = float(spearman(mn[:, None], np.where(np.isfinite(an), an, 1e300))[0])
-    binds = np.isfinite(rho) and rho < -0.3
-    if d_rs > 0 and binds:
-        text += (f"The draws nearest their threshold are the ones the nominal shunt damps worst (Spearman "
-                 f"rho = {rho:+.2f} between margin and attenuation): near its threshold a draw's loop is "
-                 f"lightly damped and its peak rises steeply. The 5 % of draws closest to the boundary "
-                 f"attenuate {close_n:.3f} dB with the nominal shunt against {med_n:.3f} dB at the median; "
-                 f"moving Rs up, away from the boundary, brings them to {close_r:.3f} dB (closest margin now "
-                 f"{np.min(mr):.4f} ohm) at {med_r - med_n:+.4f} dB on the median draw: the {risk} "
-                 "trades the typical draw for the ones the stability boundary threatens.")
+            "loop reactance vanishes; a lower R0 raises it one for one); the nominal shunt sits "
+            f"{np.median(mn):.4f} ohm above the median draw's threshold and {np.min(mn):.4f} ohm above the "
+            f"nearest. It leaves {100 * f_all:.0f} % of the draws less margin than their own optimum "
+            f"would, but {100 * f_worst:.0f} % of its worst 10 %. The draws' own optimal Rs spread over "
+            f"+-{delta * 1e3:.3f} mOhm (90 %); missing a draw's optimum by that much towards its threshold "
+            f"costs {down:+.4f} dB (median), the other way {up:+.4f} dB. ")
+    if boundary:
+        text += ("The worst draws are those the nominal shunt pushes towards their stability boundary, "
+                 "where the loop loses damping and the peak rises steeply; so the "
+                 f"{risk} moves Rs up, away from the boundary: nearest margin {np.min(mn):.4f} -> "
+                 f"{np.min(mr):.4f} ohm, worst 5 % {qn[1]:.4f} -> {qr[1]:.4f} dB, median draw "
+                 f"{qn[0]:.4f} -> {qr[0]:.4f} dB.")
     elif d_rs != 0:
-        text += (f"The boundary does not bind here: every draw keeps at least {np.min(mn):.4f} ohm of margin "
-                 f"and a draw's attenuation hardly follows its margin (Spearman rho = {rho:+.2f}). The "
-                 f"{risk} is set by the draws whose own peaks are highest (see the drivers), and the robust "
-                 f"shunt re-balances the two peaks for them (closest margin {np.min(mr):.4f} ohm; median "
-                 f"attenuation {med_r - med_n:+.4f} dB).")
+        text += ("The stability boundary does not set the move here: the "
+                 f"{risk} is made of the draws whose own peaks are highest (see the drivers), and the "
+                 f"robust shunt re-balances the two peaks for them (worst 5 % {qn[1]:.4f} -> {qr[1]:.4f} dB, "
+                 f"median draw {qn[0]:.4f} -> {qr[0]:.4f} dB).")
     else:
         text += "The nominal shunt is already the best choice for this risk measure."
     return {"text": text, "delta_Rs_ohm": d_rs, "delta_log_Cs": d_lcs, "side": side,
-            "boundary_binds": bool(binds), "spearman_margin_attenuation": rho,
-            "nominal_margin_ohm": _m(mn), "robust_margin_ohm": _m(mr),
-            "closest_5pct_attenuation_db": {"nominal": close_n, "robust": close_r},
-            "median_attenuation_db": {"nominal": med_n, "robust": med_r}}
+            "boundary_explains": bool(boundary),
+            "boundary_side_fraction": {"all": f_all, "worst_10pct": f_worst}, "steepness": steep,
+            "nominal_margin_ohm": _m(mn), "robust_margin_ohm": _m(mr)}
 
 
 def describe_r0(groups, group, plants, nom, rob) -> dict:

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..models import Model
 from .batch_design import design_draws
+from .batch_peaks import rc_peaks_batch
 from .batch_plant import BatchPlant, SampledShunt
 from .design import design_rc_shunt
 from .draws import DrawGroup, split_halves
@@ -147,14 +148,14 @@ def _design_report(on: ShuntOnDraws, res_parts, risk, alpha, confidence, eff) ->
             "margin_ohm": _margin_summary(on.margin), "per_model": per_model, "source": on.source}
 
 
-def _boundary(plants, groups, Cs_values, points) -> dict:
+def _boundary(plants, groups, Cs_values, points, Rs_ref) -> dict:
     lo, hi = 0.7 * min(Cs_values), 1.4 * max(Cs_values)
     cs = np.geomspace(lo, hi, points)
     out = {"Cs": cs}
     for bp, g in zip(plants, groups, strict=True):
         if bp.n == 0:
             continue
-        thr = np.array([bp.threshold(c) for c in cs])
+        thr = np.array([bp.threshold(c, Rs=Rs_ref) for c in cs])
         q = np.quantile(thr, [0.5, 0.95], axis=1)
         out[g.label] = {"median": q[0], "q95": q[1], "max": thr.max(axis=1)}
     return out
@@ -207,7 +208,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     timing["prepare_s"] = time.perf_counter() - t
     # each draw's own optimum, warm-started from its model's median design
     t = time.perf_counter()
-    opt_rs, opt_cs, opt_att, opt_fb, iters = [], [], [], [], 0
+    opt_rs, opt_cs, opt_att, opt_fb, opt_margin, iters = [], [], [], [], [], 0
     nom_R0 = float(nom_theta[nom_model.params.index("R0")])
     for g, bp in zip(groups, plants, strict=True):
         if g.model.name == nom_model.name and g.model.rings == nom_model.rings:
@@ -218,9 +219,10 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
             start, r0 = (d.Rs, d.Cs), float(med[g.model.params.index("R0")])
         opt = design_draws(bp, start, R0_start=r0)
         opt_rs.append(opt.Rs), opt_cs.append(opt.Cs), opt_att.append(opt.attenuation_db)
-        opt_fb.append(opt.fallback)
+        opt_fb.append(opt.fallback), opt_margin.append(opt.margin)
         iters = max(iters, opt.iterations)
-    opt_rs, opt_cs, opt_att, opt_fb = (np.concatenate(v) for v in (opt_rs, opt_cs, opt_att, opt_fb))
+    opt_rs, opt_cs, opt_att, opt_fb, opt_margin = (
+        np.concatenate(v) for v in (opt_rs, opt_cs, opt_att, opt_fb, opt_margin))
     timing["per_draw_designs_s"] = time.perf_counter() - t
     group = np.concatenate([np.full(g.n, i) for i, g in enumerate(groups)])
     halves = split_halves(groups, seed=seed)
@@ -251,12 +253,21 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
                          f"{c['disagree']} of {c['checked']} draws checked near the boundary")
     r0 = describe_r0(groups, group, plants, on_nom, on_rob)
     warns.extend(r0.pop("warnings"))
-    why = explain_move(on_nom, on_rob, design, held, risk, alpha)
+    delta = max(float(np.diff(quantiles(opt_rs[design], [0.05, 0.95]))[0]) / 2, 1e-5)
+    steep = {"delta_ohm": delta}
+    for key, sign in (("loss_down_db", -1.0), ("loss_up_db", 1.0)):
+        regret = []
+        for i, (bp, (d, _)) in enumerate(zip(plants, halves, strict=True)):
+            j = off[i] + d
+            pb = rc_peaks_batch(bp, opt_rs[j] + sign * delta, opt_cs[j], d)
+            regret.append(20 * np.log10(pb.hinf / bp.open_peak[d]) - opt_att[j])
+        steep[key] = float(np.median(np.concatenate(regret)))
+    why = explain_move(on_nom, on_rob, design, risk, steep, opt_margin)
     sens = sensitivity(groups, group, opt_rs, opt_cs, opt_att, on_nom.attenuation)
     timing["report_s"] = time.perf_counter() - t
     boundary = {}
     if boundary_points:
-        boundary = _boundary(plants, groups, list(opt_cs) + [nom.Cs, choice.Cs], boundary_points)
+        boundary = _boundary(plants, groups, list(opt_cs) + [nom.Cs, choice.Cs], boundary_points, choice.Rs)
     n_held = int(held.sum())
     if rep_rob["p_unstable_ci"][1] > epsilon:
         need = math.ceil(-math.log(1 - confidence) / epsilon / max(ess_fraction, 1e-12))
