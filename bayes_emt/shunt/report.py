@@ -30,8 +30,9 @@ def explain_move(nom, rob, design, risk, steep: dict, own_margin) -> dict:
     A draw is on the *boundary side* of the nominal shunt when the shunt leaves it less margin to
     its instability threshold than the draw's own optimum does (``own_margin``, [Ω] per draw):
     its loop is less damped than its own design would make it, and its peak rises steeply. When
-    the nominal shunt's worst draws are mostly boundary-side ones, a risk measure over draws moves
-    Rs up, away from the boundary. ``steep`` holds ``delta_ohm`` (half the 90 % spread of the
+    the nominal shunt's worst 10 % hold boundary-side draws more often than the draws at large (by
+    more than two binomial standard errors), the boundary is what a risk measure over draws
+    answers by moving Rs up. ``steep`` holds ``delta_ohm`` (half the 90 % spread of the
     draws' own optimal Rs) and the median regret [dB] of moving each draw's own optimum by that
     much down (``loss_down_db``) and up (``loss_up_db``). Everything is on the design half."""
     d_rs, d_lcs = rob.Rs - nom.Rs, math.log(rob.Cs / nom.Cs)
@@ -43,7 +44,10 @@ def explain_move(nom, rob, design, risk, steep: dict, own_margin) -> dict:
     closer = mn < own_margin[design]
     f_all, f_worst = float(np.mean(closer)), float(np.mean(closer[worst]))
     down, up, delta = steep["loss_down_db"], steep["loss_up_db"], steep["delta_ohm"]
-    boundary = d_rs > 0 and f_worst >= 0.6 and f_worst > f_all
+    # the worst draws are boundary-side ones more often than chance: two binomial standard errors
+    n_worst = int(np.count_nonzero(worst))
+    enriched = f_worst - f_all > 2 * math.sqrt(max(f_all * (1 - f_all), 1e-12) / max(n_worst, 1))
+    boundary = d_rs > 0 and enriched
     text = (f"The robust Rs is {abs(d_rs) * 1e3:.3f} mOhm {side} than the nominal "
             f"({nom.Rs:.5f} -> {rob.Rs:.5f} ohm; Cs {nom.Cs:.5g} -> {rob.Cs:.5g} F). Every draw has its "
             "own instability threshold in Rs (minus the real part of the terminal impedance where the "
