@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._json import strict_json
 from ..models import Model
 from .batch_design import design_draws
 from .batch_peaks import rc_peaks_batch
@@ -101,18 +102,6 @@ class RobustShunt:
 
     def to_json_dict(self) -> dict:
         return {**self.report, "warnings": list(self.warnings)}
-
-
-def _finite(d):
-    if isinstance(d, dict):
-        return {k: _finite(v) for k, v in d.items()}
-    if isinstance(d, list | tuple):
-        return [_finite(v) for v in d]
-    if isinstance(d, float | np.floating):
-        return float(d) if math.isfinite(d) else None
-    if isinstance(d, np.integer | np.bool_):
-        return d.item()
-    return d
 
 
 def _margin_summary(m) -> dict:
@@ -302,4 +291,4 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
                   "regret_db": "dB (>= 0: worse than the draw's own optimum)", "risk_db": "dB"},
         "timing": timing}
     return RobustShunt(tuple(groups), group, held, on_nom, on_rob, opt_rs, opt_cs, opt_att, opt_fb, risk,
-                       alpha, epsilon, confidence, seed, _finite(report), boundary, tuple(warns))
+                       alpha, epsilon, confidence, seed, strict_json(report), boundary, tuple(warns))
