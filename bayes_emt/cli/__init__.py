@@ -11,6 +11,7 @@ import argparse
 import importlib
 import pkgutil
 import sys
+import time
 import warnings
 
 from ..errors import BayesEMTError
@@ -42,8 +43,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.showwarning = _showwarning
+    t0 = time.perf_counter()
     try:
         rc = args.func(args)
+        if getattr(args, "verbose", False):
+            print(f"bayes-emt {args.command}: finished in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     except (BayesEMTError, ValueError, KeyError, FileNotFoundError, FileExistsError, IsADirectoryError,
             PermissionError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc

@@ -6,7 +6,44 @@ import argparse
 
 from ...models import AUGMENTATIONS, MODEL_NAMES
 
-__all__ = ["add_data_args", "add_model_args", "print_table", "model_from_args", "check_model_matches"]
+__all__ = ["add_data_args", "add_model_args", "print_table", "model_from_args", "check_model_matches",
+           "add_parser", "add_output_args", "note", "detail", "progress_of"]
+
+
+def add_parser(sub, name: str, *, help: str, description: str | None, examples: str):
+    """A sub-command parser whose ``--help`` ends with worked examples (``examples`` lines, each a
+    full command line) and keeps the description's own line breaks."""
+    return sub.add_parser(name, help=help, description=description,
+                          epilog="examples:\n" + "\n".join(f"  {ln}" for ln in examples.strip().splitlines()),
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
+def add_output_args(p: argparse.ArgumentParser, *, progress: bool = False) -> None:
+    """``--quiet`` / ``--verbose`` (mutually exclusive). ``progress``: the command has progress bars
+    (shown on a terminal unless ``--quiet``)."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--quiet", action="store_true",
+                   help=("no progress bars; " if progress else "")
+                   + "print the results only (no notes, no 'wrote' lines); errors and warnings still show")
+    g.add_argument("--verbose", action="store_true",
+                   help="also print the details: settings, intermediate values and the time taken")
+
+
+def note(args, *text) -> None:
+    """Print unless ``--quiet``: context around the results (headers, notes, files written)."""
+    if not getattr(args, "quiet", False):
+        print(*text)
+
+
+def detail(args, *text) -> None:
+    """Print only with ``--verbose``."""
+    if getattr(args, "verbose", False):
+        print(*text)
+
+
+def progress_of(args) -> bool | None:
+    """The ``progress`` argument of the library calls: off with ``--quiet``, else on a terminal."""
+    return False if getattr(args, "quiet", False) else None
 
 
 def add_data_args(p: argparse.ArgumentParser) -> None:

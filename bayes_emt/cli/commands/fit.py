@@ -5,15 +5,33 @@ every parameter, the rms relative residual and chi², and writes
 
 from __future__ import annotations
 
-from ._common import add_data_args, add_model_args, model_from_args, print_table
+from ._common import (
+    add_data_args,
+    add_model_args,
+    add_output_args,
+    add_parser,
+    detail,
+    model_from_args,
+    note,
+    print_table,
+)
+
+EXAMPLES = """\
+bayes-emt fit speaker.zma --model UD
+bayes-emt fit speaker.zma --model NL --rings 5 --json nl_fit.json
+bayes-emt fit lcr_export.csv --model UD --freq-unit hz --phase-unit rad --omega-min 60
+bayes-emt fit speaker.zma --model UD+winding_capacitance --verbose
+"""
 
 
 def register(sub) -> None:
-    p = sub.add_parser("fit", help="deterministic fit: automatic initial estimate + two-step least squares")
+    p = add_parser(sub, "fit", help="deterministic fit: automatic initial estimate + two-step least squares",
+                   description=__doc__, examples=EXAMPLES)
     p.add_argument("data", help="measurement file (.zma, CSV/TSV with header, .s1p)")
     add_model_args(p)
     add_data_args(p)
     p.add_argument("--json", default=None, help="write the result as JSON here")
+    add_output_args(p)
     p.set_defaults(func=run)
 
 
@@ -33,12 +51,12 @@ def run(args) -> int:
     se = fit.stderr
     rows = [(s.name, format_value(v), s.unit, format_value(se[s.name]))
             for s, v in zip(model.params, fit.theta, strict=True)]
-    print(f"model {model.label} on {meas.source}: {meas.n_points} points, "
-          f"{meas.omega[0]:.4g}..{meas.omega[-1]:.4g} rad/s")
+    note(args, f"model {model.label} on {meas.source}: {meas.n_points} points, "
+         f"{meas.omega[0]:.4g}..{meas.omega[-1]:.4g} rad/s ({meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz)")
     print_table(rows, ("parameter", "value", "unit", "std error"))
-    print(f"rms relative residual {fit.rms_rel_residual:.4g}   chi2 {fit.chi2:.4g}   "
-          f"({fit.info['seconds']:.2f} s)")
-    print(f"initial estimate: {fit.info['initial']['path']}")
+    print(f"rms relative residual {fit.rms_rel_residual:.4g}   chi2 {fit.chi2:.4g}")
+    detail(args, f"fit time {fit.info['seconds']:.2f} s; initial estimate: {fit.info['initial']['path']}; "
+                 f"optimiser: {fit.message}")
     if not fit.success:
         print(f"note: the optimiser did not converge ({fit.message})")
     if fit.cov_z is None:
@@ -47,5 +65,5 @@ def run(args) -> int:
         print(f"note: at the edge of the physical range: {', '.join(fit.info['at_prior_bound'])}")
     if args.json:
         write_json(args.json, fit.to_json_dict())
-        print(f"wrote {args.json}")
+        note(args, f"wrote {args.json}")
     return 0

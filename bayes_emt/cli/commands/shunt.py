@@ -10,14 +10,20 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ._common import check_model_matches
+from ._common import add_output_args, add_parser, check_model_matches, detail, note
+
+EXAMPLES = """\
+bayes-emt shunt --params nl_fit.json
+bayes-emt shunt --params ud_fit.json --evaluate-on nl_fit.json --json ud_shunt.json
+bayes-emt shunt --params nl_fit.json --implement --fs 5000 --delay 1 --plot figures/
+"""
 
 TABLE7 = {"r_in": 0.0996, "k_in": 99.23, "k_out": 0.9846, "fs": 5000.0}
 
 
 def register(sub) -> None:
-    p = sub.add_parser("shunt", help="optimal RC shunt for a parameter file (SPEC §4)",
-                       description=__doc__.split("\n\n", 1)[1])
+    p = add_parser(sub, "shunt", help="optimal RC shunt for a parameter file (SPEC §4)",
+                   description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
     p.add_argument("--params", required=True, metavar="P.json",
                    help='parameter file {"model", "rings"?, "parameters"} (as fit --json writes)')
     p.add_argument("--model", default=None, metavar="SPEC",
@@ -38,6 +44,7 @@ def register(sub) -> None:
                    help="the shunt realisation's bandwidth [rad/s]: the stability constraint leaves out the "
                         "ideal loop above it (needed with a capacitance across the terminals); default: "
                         "ideal loop")
+    add_output_args(p)
     p.set_defaults(func=run)
 
 
@@ -71,7 +78,9 @@ def run(args) -> int:
     print(f"model {model.label} ({args.params}): H-infinity optimal RC shunt ({d.optimum})")
     print(f"  Rs = {d.Rs:.5f} ohm, Cs = {d.Cs:.5g} F: attenuation {d.attenuation_db:.3f} dB "
           f"(peak at {d.peak_omega:.4g} rad/s = {d.peak_omega / (2 * math.pi):.4g} Hz)")
-    print(f"  fixed-point closed form: Rs = {cf['Rs']:.5f} ohm, Cs = {cf['Cs']:.5g} F "
+    detail(args, "  parameters: " + ", ".join(f"{s.name} = {v:.5g} {s.unit}"
+                                              for s, v in zip(model.params, theta, strict=True)))
+    note(args, f"  fixed-point closed form: Rs = {cf['Rs']:.5f} ohm, Cs = {cf['Cs']:.5g} F "
           f"({cf['attenuation_db']:.3f} dB; coil at omega0: L = {cf['L_eq']:.4g} H, "
           f"R = {cf['R_eq']:.3g} ohm)")
     print("  " + _fmt_margin(d))
@@ -106,8 +115,8 @@ def run(args) -> int:
                           ("attenuation_map", plot_attenuation_map(d, model, theta))):
             path = folder / f"shunt_{model.spec}_{name}.png"
             save_figure(fig, path, dpi=120)
-            print(f"  wrote {path}")
+            note(args, f"  wrote {path}")
     if args.json:
         write_json(args.json, out)
-        print(f"wrote {args.json}")
+        note(args, f"wrote {args.json}")
     return 0
