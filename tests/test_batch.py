@@ -173,3 +173,19 @@ def test_cli_usage_errors_are_one_line_exit_2(tmp_path, capsys, argv, message):
 def test_cli_missing_source_exit_2(tmp_path, capsys):
     assert main(["batch", str(tmp_path / "nowhere"), "--out", str(tmp_path / "out")]) == 2
     assert "no such folder or file" in capsys.readouterr().err
+
+
+def test_a_running_scheduler_is_reached_by_its_address(tmp_path, client):
+    # the --scheduler ADDRESS path: connect to an existing cluster (here the fixture's) by address
+    data = make_recordings(tmp_path / "data", 2, broken=False)
+    res = run_batch(data, tmp_path / "out", BatchSettings(jobs=("fit",), model="I"),
+                    scheduler=client.scheduler.address)
+    assert res.counts == {"done": 2, "error": 0, "pending": 0}
+
+
+def test_an_unreachable_scheduler_is_a_one_line_usage_error(tmp_path, capsys):
+    data = make_recordings(tmp_path / "data", 1, broken=False)
+    rc = main(["batch", str(data), "--out", str(tmp_path / "out"), "--scheduler", "tcp://127.0.0.1:9"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "--scheduler tcp://127.0.0.1:9: cannot connect" in err
+    assert len(err.strip().splitlines()) == 1, err
