@@ -189,3 +189,28 @@ def test_an_unreachable_scheduler_is_a_one_line_usage_error(tmp_path, capsys):
     err = capsys.readouterr().err
     assert rc == 2 and "--scheduler tcp://127.0.0.1:9: cannot connect" in err
     assert len(err.strip().splitlines()) == 1, err
+
+
+def test_an_unfinished_file_continues_its_sampler_chain(tmp_path):
+    # what a kill in the middle of a file leaves: the checkpoint, no marker. The next run resumes
+    # the stored chain (its first steps kept bit for bit on this machine), it does not restart.
+    import emcee
+
+    inp = find_inputs(make_recordings(tmp_path / "data", 1, broken=False))[0]
+    folder = tmp_path / "out" / inp.name
+    first = process_file(inp, folder, BatchSettings(jobs=("fit", "sample"), model="I", max_steps=100))
+    assert first.status == "done"
+
+    def chain():
+        ckpt = str(folder / "posterior.h5")
+        return emcee.backends.HDFBackend(ckpt, name="mcmc", read_only=True).get_chain()
+
+    chain100 = chain()
+    (folder / MARKER).unlink()
+    longer = BatchSettings(jobs=("fit", "sample"), model="I", max_steps=200)
+    assert not is_finished(inp, folder, longer)
+    again = process_file(inp, folder, longer)
+    assert again.status == "done" and again.summary["steps"] == 200
+    chain200 = chain()
+    assert chain200.shape[0] == 200
+    np.testing.assert_array_equal(chain200[:100], chain100)
