@@ -46,6 +46,8 @@ from scipy import special
 from ..measurement import Measurement
 from ..models import Model
 from ..params import NOISE_PARAMS, NU_SPEC, ParamSet, noise_param_set
+from .fastpath import JwPlan
+from .noise import GaussianNoiseSums
 
 __all__ = ["NOISE_PARAMS", "NU_SPEC", "Likelihood", "LikelihoodKind", "SamplingSpaceDensity",
            "noise_param_set", "measurement_sha256"]
@@ -141,6 +143,8 @@ class Likelihood(SamplingSpaceDensity):
         w = np.ones(self.meas.n_points) if self.meas.weights is None else self.meas.weights
         object.__setattr__(self, "_absY", np.abs(self.meas.Y))
         object.__setattr__(self, "_w2", np.asarray(w, float) ** 2)
+        object.__setattr__(self, "_plan", JwPlan.build(self.model, self.meas.omega))
+        object.__setattr__(self, "_noise", GaussianNoiseSums(self.meas.Y, self._w2))
 
     @property
     def sample_nu(self) -> bool:
@@ -182,11 +186,27 @@ class Likelihood(SamplingSpaceDensity):
         b = np.asarray(sigma_abs, float)[..., None]
         return np.sqrt((a * a + b * b) / self._w2)
 
+    def model_admittance(self, theta_model) -> np.ndarray:
+        """The model's ``Y(jω)`` [S] at the measured frequencies for model parameters ``(..., k_model)``
+        (through the fast path when the model has one: :mod:`bayes_emt.inference.fastpath`)."""
+        with np.errstate(all="ignore"):
+            if self._plan is not None:
+                return self._plan.admittance(theta_model)
+            return self.model.admittance(self.meas.omega, theta_model)
+
     def residuals(self, theta):
         """Complex ``Y_model − Y_meas`` [S], shape ``(..., F)``."""
-        th = self.split(theta)[0]
+        return self.model_admittance(self.split(theta)[0]) - self.meas.Y
+
+    def scaled_squared_residuals(self, theta_model) -> np.ndarray:
+        """``|Y_model − Y_meas|² w_k²/|Y_meas|²`` per frequency for model parameters ``(W, k_model)``:
+        what the Gaussian total needs (:mod:`bayes_emt.inference.noise`), ``(W, F)``."""
+        th = np.asarray(theta_model, float)
+        if self._plan is not None:
+            return self._plan.scaled_squared_residuals(th, self.meas.Y, self._noise.scale)
         with np.errstate(all="ignore"):
-            return self.model.admittance(self.meas.omega, th) - self.meas.Y
+            r = self.model.admittance(self.meas.omega, th) - self.meas.Y
+            return (r.real**2 + r.imag**2) * self._noise.scale**2
 
     def normalised_residuals(self, theta):
         """Complex ``(Y_model − Y_meas)/σ_k`` (real and imaginary parts ~ N(0, 1) under the
@@ -227,8 +247,19 @@ class Likelihood(SamplingSpaceDensity):
 
     def __call__(self, theta) -> np.ndarray:
         """Total log-likelihood [nats], shape ``theta.shape[:-1]`` (dynesty's ``loglike`` with
-        ``params.prior_transform`` as its ``prior_transform``)."""
-        return np.sum(self.pointwise(theta), axis=-1)
+        ``params.prior_transform`` as its ``prior_transform``); ``-inf`` where not finite.
+
+        Equal to ``pointwise(theta).sum(-1)``; the Gaussian total is computed without per-point
+        logarithms (:mod:`bayes_emt.inference.noise`) from the fast path's scaled residuals.
+        """
+        if self.kind != "gaussian":
+            return np.sum(self.pointwise(theta), axis=-1)
+        theta = np.asarray(theta, float)
+        lead = theta.shape[:-1]
+        flat = theta.reshape(-1, theta.shape[-1])
+        th, srel, sabs, _ = self.split(flat)
+        e = self.scaled_squared_residuals(th)
+        return self._noise.total(e, srel, sabs).reshape(lead)
 
     def identity(self) -> dict:
         """What a checkpoint must match to be resumed by this likelihood (data by SHA-256)."""

@@ -1,0 +1,235 @@
+"""The likelihood's fast path: a model's admittance on the measured ``s = jω`` in real arithmetic.
+
+A :class:`JwPlan` reads a model's terms and, when every one is a series term the kernels of
+:mod:`bayes_emt.models.terms` can evaluate on the imaginary axis, evaluates a batch of parameter
+sets ``(W, k)`` at the measurement's fixed frequencies as
+
+* the rational terms (resistance, inductances, lossy inductance, motional branch, NL ring ladder,
+  UL rings) summed into one polynomial pair ``Zr = N(s)/D(s)``, whose real and imaginary parts at
+  ``jω`` are small real matrix products with a precomputed basis
+  (:func:`~bayes_emt.models.terms.jw_power_basis`);
+* plus the Bessel terms (models III, UD) from the 45° table (:func:`~bayes_emt.models.terms.bessel_eddy_jw`).
+
+The quantity a Gaussian likelihood needs is the scaled squared residual
+``e_k = |Y(jω_k) − Y_k|² c_k²`` with a fixed per-frequency scale ``c_k``. Writing the model
+admittance as ``Y = D/T`` with ``T = N + B D`` (``B`` the Bessel part), ``Y − Y_k = E/T`` with
+``E = D − Y_k T``; ``D − Y_k N`` is linear in the polynomial coefficients, so the measured data
+and ``c_k`` are folded into the basis once and ``E`` costs one matrix product (plus ``B``'s terms).
+No complex division, no complex temporaries, no per-term arrays.
+
+A plan is only used after it reproduced :meth:`Model.admittance` at three parameter sets to
+1e-9 relative (:meth:`JwPlan.build`); a model with any other term (parallel terms, terms the
+discrepancy step adds), more than :data:`MAX_DEGREE` polynomial degrees, or frequencies whose
+powers would overflow gets no plan, and the likelihood evaluates it through the model instead.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..models import Model
+from ..models import terms as T
+
+__all__ = ["JwPlan", "MAX_DEGREE"]
+
+#: Highest polynomial degree evaluated in the monomial basis (NL/UL up to 12 rings with the motional
+#: branch); beyond it the powers of ω span too many decades.
+MAX_DEGREE = 16
+_CHECK_RTOL = 1e-9
+
+
+def _rational_handlers(model: Model) -> dict:
+    n_turns = model.n_turns
+    rings = model.rings
+
+    def ladder(v):
+        n = (v.shape[1] - 1) // 2
+        return T.ladder_polynomials(v[:, 0], v[:, 1 : n + 1], v[:, n + 1 :], n_turns)
+
+    def uniform(v):
+        Pg, P, R = T.uniform_rings(v[:, 0], v[:, 1], v[:, 2], rings, n_turns)
+        return T.ladder_polynomials(Pg, P, R, n_turns)
+
+    return {
+        "motional": lambda v: T.motional_polynomials(v[:, 0], v[:, 1], v[:, 2]),
+        "resistance": lambda v: T.resistance_polynomials(v[:, 0]),
+        "inductance": lambda v: T.inductance_polynomials(v[:, 0]),
+        "gap_inductance": lambda v: T.inductance_polynomials(v[:, 0]),
+        "lossy_inductance": lambda v: T.lossy_inductance_polynomials(v[:, 0], v[:, 1]),
+        "ring_ladder": ladder,
+        "uniform_rings": uniform if rings is not None else None,
+    }
+
+
+class JwPlan:
+    """Evaluation of one model at fixed angular frequencies ``omega`` [rad/s] (module docstring).
+
+    Use :meth:`build` (returns ``None`` when the model has no fast path); the constructor raises
+    ``NotImplementedError`` for an unsupported model.
+    """
+
+    def __init__(self, model: Model, omega):
+        self.model = model
+        self.omega = np.asarray(omega, float)
+        if self.omega.ndim != 1 or not np.all(self.omega > 0):
+            raise NotImplementedError("the fast path needs positive angular frequencies")
+        handlers = _rational_handlers(model)
+        self._rational, self._bessel = [], []
+        start = 0
+        for term in model.terms:
+            sl = slice(start, start + len(term.params))
+            start = sl.stop
+            if term.kind != "series":
+                raise NotImplementedError(f"term {term.name!r} is not a series impedance")
+            if term.name == "bessel_eddy" and len(term.params) == 2:
+                self._bessel.append(sl)
+            elif handlers.get(term.name) is not None:
+                self._rational.append((sl, handlers[term.name]))
+            else:
+                raise NotImplementedError(f"no fast path for term {term.name!r}")
+        if start != model.ndim or not self._rational:
+            raise NotImplementedError("the terms do not cover the model's parameters")
+        probe = self._polynomials(np.ones((1, model.ndim)))
+        self.deg_num, self.deg_den = probe[0].shape[-1] - 1, probe[1].shape[-1] - 1
+        if max(self.deg_num, self.deg_den) > MAX_DEGREE:
+            raise NotImplementedError("polynomial degree too high for the monomial basis")
+        deg = max(self.deg_num, self.deg_den)
+        with np.errstate(over="ignore"):
+            self._basis = T.jw_power_basis(self.omega, deg)
+        if not all(np.all(np.isfinite(b)) & np.all(np.abs(b) < 1e250) for b in self._basis):
+            raise NotImplementedError("powers of the frequencies overflow")
+        self._half_log_omega = 0.5 * np.log(self.omega)
+        self._folded: dict = {}
+
+    @classmethod
+    def build(cls, model: Model, omega) -> JwPlan | None:
+        """A checked plan, or ``None`` if the model has none or it disagrees with the model."""
+        try:
+            plan = cls(model, omega)
+        except NotImplementedError:
+            return None
+        u = np.array([[0.3], [0.5], [0.7]]) + np.linspace(-0.05, 0.05, model.ndim)[None, :]
+        theta = model.params.prior_transform(u)
+        with np.errstate(all="ignore"):
+            ref = model.admittance(plan.omega, theta)
+            got = plan.admittance(theta)
+        ok = np.isfinite(ref)
+        if not np.any(ok) or not np.all(np.isfinite(got[ok])):
+            return None
+        if np.max(np.abs(got[ok] - ref[ok]) / np.abs(ref[ok])) > _CHECK_RTOL:
+            return None
+        return plan
+
+    # ---- pieces ------------------------------------------------------------------------------------
+    def _polynomials(self, theta):
+        """Sum of the rational terms as ``(num, den)``, each ``(W, d + 1)``."""
+        acc = None
+        for sl, fn in self._rational:
+            pair = fn(theta[:, sl])
+            acc = pair if acc is None else T.add_rational(acc, pair)
+        return acc
+
+    def _bessel_parts(self, theta):
+        re = im = None
+        for sl in self._bessel:
+            br, bi = T.bessel_eddy_jw(self.omega, theta[:, sl.start, None], theta[:, sl.start + 1, None])
+            re, im = (br, bi) if re is None else (re + br, im + bi)
+        return re, im
+
+    def _eval(self, coeffs):
+        """``(W, 2F)``: real parts then imaginary parts of polynomials ``coeffs`` at ``jω``."""
+        even, odd = self._basis
+        F = self.omega.size
+        out = np.empty(coeffs.shape[:-1] + (2 * F,))
+        ne, no = (coeffs.shape[-1] + 1) // 2, coeffs.shape[-1] // 2
+        # contiguous operands: numpy hands only those to BLAS (a strided one takes a slow loop)
+        np.matmul(np.ascontiguousarray(coeffs[:, 0::2]), even[:ne], out=out[:, :F])
+        if no:
+            np.matmul(np.ascontiguousarray(coeffs[:, 1::2]), odd[:no], out=out[:, F:])
+        else:
+            out[:, F:] = 0.0
+        return out
+
+    def _folded_basis(self, Y, scale):
+        """Basis rows turning ``[den coeffs, num coeffs]`` into ``c_k (D − Y_k N)`` at ``jω``."""
+        key = (id(Y), id(scale))
+        hit = self._folded.get(key)
+        if hit is not None and hit[0] is Y and hit[1] is scale:
+            return hit[2]
+        even, odd = self._basis
+        F = self.omega.size
+        yr, yi = Y.real * scale, Y.imag * scale
+        rows = []
+        for k in range(self.deg_den + 1):  # D: (jω)^k times the scale
+            row = np.zeros(2 * F)
+            if k % 2 == 0:
+                row[:F] = even[k // 2] * scale
+            else:
+                row[F:] = odd[k // 2] * scale
+            rows.append(row)
+        for k in range(self.deg_num + 1):  # −Y N: −(yr + j yi)(p_r + j p_i)
+            row = np.zeros(2 * F)
+            if k % 2 == 0:
+                p = even[k // 2]
+                row[:F], row[F:] = -yr * p, -yi * p
+            else:
+                p = odd[k // 2]
+                row[:F], row[F:] = yi * p, -yr * p
+            rows.append(row)
+        M = np.array(rows)
+        self._folded = {key: (Y, scale, M)}
+        return M
+
+    # ---- public --------------------------------------------------------------------------------
+    def admittance(self, theta) -> np.ndarray:
+        """Complex ``Y(jω)`` [S] for parameter sets ``theta (..., k)`` → ``(..., F)``."""
+        theta = np.asarray(theta, float)
+        lead = theta.shape[:-1]
+        flat = theta.reshape(-1, theta.shape[-1])
+        num, den = self._polynomials(flat)
+        F = self.omega.size
+        with np.errstate(all="ignore"):
+            N = self._eval(num)
+            D = self._eval(den)
+            Zn = N[:, :F] + 1j * N[:, F:]
+            Zd = D[:, :F] + 1j * D[:, F:]
+            if self._bessel:
+                br, bi = self._bessel_parts(flat)
+                Zn = Zn + (br + 1j * bi) * Zd
+            Y = Zd / Zn
+        return Y.reshape(lead + (F,))
+
+    def scaled_squared_residuals(self, theta, Y, scale) -> np.ndarray:
+        """``e_k = |Y_model(jω_k) − Y_k|² scale_k²`` for parameter sets ``theta (W, k)`` → ``(W, F)``.
+
+        ``Y`` (complex, ``(F,)``) and ``scale`` (real, ``(F,)``) must be the same array objects
+        from call to call (the folded basis is cached on their identity).
+        """
+        theta = np.asarray(theta, float)
+        num, den = self._polynomials(theta)
+        F = self.omega.size
+        M = self._folded_basis(Y, scale)
+        E = np.concatenate([den, num], axis=-1) @ M  # c (D − Y N), (W, 2F)
+        with np.errstate(all="ignore"):
+            if not self._bessel:
+                T_ = self._eval(num)
+            else:
+                D = self._eval(den)
+                T_ = self._eval(num)
+                br, bi = self._bessel_parts(theta)
+                dr, di = D[:, :F], D[:, F:]
+                bdr = br * dr
+                bdr -= bi * di
+                bdi = br * di
+                bdi += bi * dr
+                T_[:, :F] += bdr
+                T_[:, F:] += bdi
+                # E -= c Y (B D)
+                yr, yi = Y.real * scale, Y.imag * scale
+                E[:, :F] -= yr * bdr - yi * bdi
+                E[:, F:] -= yr * bdi + yi * bdr
+            np.square(E, out=E)
+            np.square(T_, out=T_)
+            e = E[:, :F] + E[:, F:]
+            e /= T_[:, :F] + T_[:, F:]
+        return e
