@@ -25,6 +25,8 @@ powers would overflow gets no plan, and the likelihood evaluates it through the 
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from ..models import Model
@@ -36,6 +38,24 @@ __all__ = ["JwPlan", "MAX_DEGREE"]
 #: branch); beyond it the powers of ω span too many decades.
 MAX_DEGREE = 16
 _CHECK_RTOL = 1e-9
+#: Bytes of one ``(rows, 2F)`` work array: walkers are processed in chunks whose working set stays
+#: in the CPU's cache, in buffers reused from call to call (fresh multi-megabyte temporaries cost
+#: page faults: 5x on the Bessel models on a loaded machine).
+CHUNK_BYTES = 1 << 18
+
+
+class _Workspace(threading.local):
+    """Per-thread scratch arrays, reused while their shape fits."""
+
+    def __init__(self):
+        self.arrays = {}
+
+    def get(self, name: str, shape: tuple, dtype=float) -> np.ndarray:
+        a = self.arrays.get(name)
+        if a is None or a.shape != shape or a.dtype != np.dtype(dtype):
+            a = np.empty(shape, dtype)
+            self.arrays[name] = a
+        return a
 
 
 def _rational_handlers(model: Model) -> dict:
@@ -99,7 +119,19 @@ class JwPlan:
         if not all(np.all(np.isfinite(b)) & np.all(np.abs(b) < 1e250) for b in self._basis):
             raise NotImplementedError("powers of the frequencies overflow")
         self._half_log_omega = 0.5 * np.log(self.omega)
+        self._pos_omega = T.table_position(0.0, self._half_log_omega) - T.table_position(0.0, 0.0)
         self._folded: dict = {}
+        self._work = _Workspace()
+        self.chunk = max(1, CHUNK_BYTES // (16 * self.omega.size))
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["_work"], state["_folded"] = None, {}
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._work = _Workspace()
 
     @classmethod
     def build(cls, model: Model, omega) -> JwPlan | None:
@@ -138,17 +170,14 @@ class JwPlan:
 
     def _eval(self, coeffs):
         """``(W, 2F)``: real parts then imaginary parts of polynomials ``coeffs`` at ``jω``."""
-        even, odd = self._basis
-        F = self.omega.size
-        out = np.empty(coeffs.shape[:-1] + (2 * F,))
-        ne, no = (coeffs.shape[-1] + 1) // 2, coeffs.shape[-1] // 2
-        # contiguous operands: numpy hands only those to BLAS (a strided one takes a slow loop)
-        np.matmul(np.ascontiguousarray(coeffs[:, 0::2]), even[:ne], out=out[:, :F])
-        if no:
-            np.matmul(np.ascontiguousarray(coeffs[:, 1::2]), odd[:no], out=out[:, F:])
-        else:
-            out[:, F:] = 0.0
+        out = np.empty(coeffs.shape[:-1] + (2 * self.omega.size,))
+        self._eval_into(coeffs, out)
         return out
+
+    def scratch(self, shape: tuple) -> np.ndarray:
+        """A reusable ``(W, F)`` array for :meth:`scaled_squared_residuals`' ``out`` (overwritten by
+        the next call in this thread)."""
+        return self._work.get("e", shape)
 
     def _folded_basis(self, Y, scale):
         """Basis rows turning ``[den coeffs, num coeffs]`` into ``c_k (D − Y_k N)`` at ``jω``."""
@@ -199,37 +228,78 @@ class JwPlan:
             Y = Zd / Zn
         return Y.reshape(lead + (F,))
 
-    def scaled_squared_residuals(self, theta, Y, scale) -> np.ndarray:
-        """``e_k = |Y_model(jω_k) − Y_k|² scale_k²`` for parameter sets ``theta (W, k)`` → ``(W, F)``.
+    def scaled_squared_residuals(self, theta, Y, scale, out=None) -> np.ndarray:
+        """``e_k = |Y_model(jω_k) − Y_k|² scale_k²`` for parameter sets ``theta (W, k)`` → ``(W, F)``
+        (into ``out`` if given).
 
         ``Y`` (complex, ``(F,)``) and ``scale`` (real, ``(F,)``) must be the same array objects
-        from call to call (the folded basis is cached on their identity).
+        from call to call (the folded basis is cached on their identity). Not re-entrant within one
+        thread (scratch arrays are reused); threads each get their own.
         """
         theta = np.asarray(theta, float)
         num, den = self._polynomials(theta)
-        F = self.omega.size
+        W = theta.shape[0]
         M = self._folded_basis(Y, scale)
-        E = np.concatenate([den, num], axis=-1) @ M  # c (D − Y N), (W, 2F)
+        coeffs = np.ascontiguousarray(np.concatenate([den, num], axis=-1))
+        e = np.empty((W, self.omega.size)) if out is None else out
+        bessel = []
+        for sl in self._bessel:  # per term: table position offset and (β/√α) D's coefficients
+            with np.errstate(all="ignore"):
+                half = 0.5 * np.log(theta[:, sl.start])
+                gden = (theta[:, sl.start + 1] * np.exp(-half))[:, None] * den
+                bessel.append((T.table_position(half, 0.0), gden))
+        yr, yi = Y.real * scale, Y.imag * scale
         with np.errstate(all="ignore"):
-            if not self._bessel:
-                T_ = self._eval(num)
-            else:
-                D = self._eval(den)
-                T_ = self._eval(num)
-                br, bi = self._bessel_parts(theta)
-                dr, di = D[:, :F], D[:, F:]
-                bdr = br * dr
-                bdr -= bi * di
-                bdi = br * di
-                bdi += bi * dr
-                T_[:, :F] += bdr
-                T_[:, F:] += bdi
-                # E -= c Y (B D)
-                yr, yi = Y.real * scale, Y.imag * scale
-                E[:, :F] -= yr * bdr - yi * bdi
-                E[:, F:] -= yr * bdi + yi * bdr
-            np.square(E, out=E)
-            np.square(T_, out=T_)
-            e = E[:, :F] + E[:, F:]
-            e /= T_[:, :F] + T_[:, F:]
+            for a in range(0, W, self.chunk):
+                b = min(a + self.chunk, W)
+                self._chunk(coeffs[a:b], num[a:b], M, [(p[a:b], gd[a:b]) for p, gd in bessel], yr, yi, e[a:b])
         return e
+
+    def _chunk(self, coeffs, num, M, bessel, yr, yi, e) -> None:
+        n, F, c = coeffs.shape[0], self.omega.size, self.chunk
+        wk = self._work
+        E = wk.get("E", (c, 2 * F))[:n]
+        Tn = wk.get("T", (c, 2 * F))[:n]
+        np.matmul(coeffs, M, out=E)  # c (D − Y N)
+        self._eval_into(num, Tn)  # N
+        if bessel:
+            D = wk.get("D", (c, 2 * F))[:n]
+            pos, hr, hi, frac, tmp, bdr, bdi = (wk.get(k, (c, F))[:n] for k in
+                                                ("pos", "hr", "hi", "frac", "tmp", "bdr", "bdi"))
+            idx = wk.get("idx", (c, F), np.intp)[:n]
+            for i, (p0, gden) in enumerate(bessel):  # B D = Σ h (β/√α) D
+                self._eval_into(gden, D)
+                np.add(p0[:, None], self._pos_omega, out=pos)
+                T.bessel_h_into(pos, hr, hi, idx, frac, tmp)
+                dr, di = D[:, :F], D[:, F:]
+                if i == 0:
+                    np.multiply(hr, dr, out=bdr)
+                    np.multiply(hr, di, out=bdi)
+                else:
+                    bdr += np.multiply(hr, dr, out=tmp)
+                    bdi += np.multiply(hr, di, out=tmp)
+                bdr -= np.multiply(hi, di, out=tmp)
+                bdi += np.multiply(hi, dr, out=tmp)
+            Tn[:, :F] += bdr  # T = N + B D
+            Tn[:, F:] += bdi
+            Er, Ei = E[:, :F], E[:, F:]  # E −= c Y (B D)
+            Er -= np.multiply(bdr, yr, out=tmp)
+            Er += np.multiply(bdi, yi, out=tmp)
+            Ei -= np.multiply(bdi, yr, out=tmp)
+            Ei -= np.multiply(bdr, yi, out=tmp)
+        np.square(E, out=E)
+        np.square(Tn, out=Tn)
+        np.add(E[:, :F], E[:, F:], out=e)
+        np.add(Tn[:, :F], Tn[:, F:], out=Tn[:, :F])
+        np.divide(e, Tn[:, :F], out=e)
+
+    def _eval_into(self, coeffs, out) -> None:
+        """``out (n, 2F)`` = real parts then imaginary parts of polynomials ``coeffs`` at ``jω``."""
+        even, odd = self._basis
+        F = self.omega.size
+        ne, no = (coeffs.shape[-1] + 1) // 2, coeffs.shape[-1] // 2
+        np.matmul(np.ascontiguousarray(coeffs[:, 0::2]), even[:ne], out=out[:, :F])
+        if no:
+            np.matmul(np.ascontiguousarray(coeffs[:, 1::2]), odd[:no], out=out[:, F:])
+        else:
+            out[:, F:] = 0.0

@@ -34,6 +34,7 @@ is NaN-free: ``-inf`` outside the prior support or wherever the model cannot be 
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -46,6 +47,7 @@ from scipy import special
 from ..measurement import Measurement
 from ..models import Model
 from ..params import NOISE_PARAMS, NU_SPEC, ParamSet, noise_param_set
+from ..params.priors import LogUniform, Uniform
 from .fastpath import JwPlan
 from .noise import GaussianNoiseSums
 
@@ -54,25 +56,62 @@ __all__ = ["NOISE_PARAMS", "NU_SPEC", "Likelihood", "LikelihoodKind", "SamplingS
 
 LikelihoodKind = Literal["gaussian", "student"]
 
+class _BoxPrior:
+    """``ParamSet.log_prior_z`` and ``from_z`` in one vectorised pass: log-uniform and uniform
+    priors have a constant density in sampling space inside their support, so their columns cost
+    one bounds check; other priors go through their specs."""
+
+    def __init__(self, params: ParamSet):
+        self.params = params
+        self.log_cols = np.array([s.transform == "log" for s in params])
+        box = [i for i, s in enumerate(params) if isinstance(s.prior, LogUniform | Uniform)]
+        self.box = np.array(box, dtype=np.intp)
+        self.lo = np.array([params[i].prior.lower for i in box])
+        self.hi = np.array([params[i].prior.upper for i in box])
+        self.const = float(sum(-math.log(math.log(p.upper / p.lower)) if isinstance(p, LogUniform)
+                               else -math.log(p.upper - p.lower) for p in (params[i].prior for i in box)))
+        self.other = [i for i in range(len(params)) if i not in set(box)]
+
+    def __call__(self, z) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, log prior in sampling space)`` for sampling-space points ``z (W, k)``."""
+        x = z.copy()
+        with np.errstate(over="ignore", invalid="ignore"):
+            x[:, self.log_cols] = np.exp(z[:, self.log_cols])
+            xb = x[:, self.box]
+            inside = np.all((xb >= self.lo) & (xb <= self.hi), axis=1)
+            lp = np.where(inside, self.const, -np.inf)
+            for i in self.other:
+                lp = lp + self.params[i].log_prior_z(z[:, i])
+        return x, np.where(np.isnan(lp), -np.inf, lp)
+
+
 class SamplingSpaceDensity:
     """Posterior densities in sampling space for any likelihood with ``params`` (a ParamSet
     carrying the priors) and ``__call__(theta (..., k)) -> total log-likelihood``; shared by
     :class:`Likelihood` and the joint added-mass likelihood."""
 
+    @functools.cached_property
+    def _box_prior(self) -> _BoxPrior:
+        return _BoxPrior(self.params)
+
     def log_prob_z(self, z) -> tuple[np.ndarray, np.ndarray]:
         """``(log posterior, log likelihood)`` at sampling-space points ``z`` of shape ``(W, k)``.
 
         The log posterior is unnormalised and in sampling space (prior with its log-Jacobian, plus
-        likelihood); both are ``-inf`` outside the prior support, never NaN. The likelihood is
-        only evaluated where the prior is positive.
+        likelihood, as ``params.log_prior_z`` and ``params.from_z`` define them); both are ``-inf``
+        outside the prior support, never NaN. The likelihood is only evaluated where the prior is
+        positive.
         """
         z = np.atleast_2d(np.asarray(z, float))
-        lp = self.params.log_prior_z(z)
+        x, lp = self._box_prior(z)
         post = np.full(z.shape[0], -np.inf)
         ll = np.full(z.shape[0], -np.inf)
         ok = np.isfinite(lp)
-        if np.any(ok):
-            ll[ok] = self(self.params.from_z(z[ok]))
+        if np.all(ok):
+            ll = np.asarray(self(x), float)
+            post = np.where(np.isfinite(ll), lp + ll, -np.inf)
+        elif np.any(ok):
+            ll[ok] = self(x[ok])
             post[ok] = np.where(np.isfinite(ll[ok]), lp[ok] + ll[ok], -np.inf)
         return post, ll
 
@@ -258,7 +297,11 @@ class Likelihood(SamplingSpaceDensity):
         lead = theta.shape[:-1]
         flat = theta.reshape(-1, theta.shape[-1])
         th, srel, sabs, _ = self.split(flat)
-        e = self.scaled_squared_residuals(th)
+        if self._plan is not None:
+            e = self._plan.scaled_squared_residuals(th, self.meas.Y, self._noise.scale,
+                                                    out=self._plan.scratch((th.shape[0], self.n_points)))
+        else:
+            e = self.scaled_squared_residuals(th)
         return self._noise.total(e, srel, sabs).reshape(lead)
 
     def identity(self) -> dict:

@@ -32,7 +32,7 @@ from emcee.moves.mh import MHMove
 from emcee.moves.red_blue import RedBlueMove
 
 __all__ = ["SnookerMove", "EnsembleTMove", "IndependenceTMove", "warmup_moves", "production_moves",
-           "MOVES_DESCRIPTION"]
+           "proposal_mismatch", "MOVES_DESCRIPTION"]
 
 #: What a checkpoint records about the moves (a resume with other moves is refused).
 MOVES_DESCRIPTION = ("warm-up: ensemble-t 0.5 + DE 0.4 + snooker 0.1; "
@@ -147,3 +147,22 @@ def production_moves(warmup_points) -> list | None:
     except np.linalg.LinAlgError:
         return None
     return [(move, 0.9), (emcee.moves.DEMove(), 0.1)]
+
+
+def proposal_mismatch(fitted_points, new_points, *, scale: float = 2.0, shift: float = 0.5) -> bool:
+    """Whether ``new_points`` (a later stretch of the chain, ``(n, d)``) disagree with the sample
+    ``fitted_points`` a proposal was fitted to: a variance ratio along some direction outside
+    ``[1/scale, scale]`` (generalised eigenvalues of the two covariances) or the means apart by
+    more than ``shift`` standard deviations (Mahalanobis). Degenerate samples count as a mismatch."""
+    a, b = np.asarray(fitted_points, float), np.asarray(new_points, float)
+    d = a.shape[1]
+    if a.shape[0] <= d or b.shape[0] <= d or not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        return True
+    try:
+        L = np.linalg.cholesky(np.cov(a, rowvar=False))
+    except np.linalg.LinAlgError:
+        return True
+    Li = np.linalg.inv(L)
+    lam = np.linalg.eigvalsh(Li @ np.cov(b, rowvar=False) @ Li.T)
+    m = Li @ (b.mean(axis=0) - a.mean(axis=0))
+    return bool(lam.min() < 1.0 / scale or lam.max() > scale or float(m @ m) > shift**2)

@@ -48,8 +48,9 @@ class GaussianNoiseSums:
         self.const = float(np.sum(np.log(abs2 / w2)))
         self.a_min = float(np.min(self.a))
         j = np.arange(SERIES_TERMS + 1)
-        # columns: a^j (small ρ), then a^-(j+1) (large ρ), j = 0..J
-        self.powers = np.hstack([self.a[:, None] ** j[None, :], self.a[:, None] ** -(j[None, :] + 1.0)])
+        # a^j (small ρ) and a^-(j+1) (large ρ), j = 0..J
+        self.powers_low = np.ascontiguousarray(self.a[:, None] ** j[None, :])
+        self.powers_high = np.ascontiguousarray(self.a[:, None] ** -(j[None, :] + 1.0))
         lsign = np.array([(-1.0) ** (i + 1) / i for i in range(1, SERIES_TERMS + 1)])
         self._l_low = lsign * np.sum(self.a[:, None] ** j[None, 1:], axis=0)
         self._l_high = lsign * np.sum(self.a[:, None] ** -j[None, 1:], axis=0)
@@ -60,17 +61,24 @@ class GaussianNoiseSums:
         rho2 = np.asarray(rho2, float)
         J = SERIES_TERMS + 1
         j = np.arange(J)
+        S = np.empty(rho2.shape)
+        L = np.empty(rho2.shape)
         with np.errstate(all="ignore"):
             low = rho2 * self.a_max <= SERIES_X
             high = ~low & (1.0 / (rho2 * self.a_min) <= SERIES_X)
-            G = e @ self.powers  # (W, 2J)
-            S = np.sum(G[:, :J] * (-rho2[:, None]) ** j, axis=1)
-            L = (rho2[:, None] ** j[1:]) @ self._l_low
-            inv = 1.0 / rho2
-            S_high = np.sum(G[:, J:] * (-inv[:, None]) ** j * inv[:, None], axis=1)
-            L_high = self.F * np.log(rho2) + self._sum_log_a + (inv[:, None] ** j[1:]) @ self._l_high
-        S = np.where(high, S_high, S)
-        L = np.where(high, L_high, L)
+            for rows, powers in ((low, self.powers_low), (high, self.powers_high)):
+                if not np.any(rows):
+                    continue
+                sel = slice(None) if np.all(rows) else np.flatnonzero(rows)
+                G = e[sel] @ powers  # (n, J)
+                r = rho2[sel]
+                if powers is self.powers_low:
+                    S[sel] = np.sum(G * (-r[:, None]) ** j, axis=1)
+                    L[sel] = (r[:, None] ** j[1:]) @ self._l_low
+                else:
+                    inv = 1.0 / r
+                    S[sel] = np.sum(G * (-inv[:, None]) ** j, axis=1) * inv
+                    L[sel] = self.F * np.log(r) + self._sum_log_a + (inv[:, None] ** j[1:]) @ self._l_high
         mid = np.flatnonzero(~(low | high))
         if mid.size:
             with np.errstate(all="ignore"):

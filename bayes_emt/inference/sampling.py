@@ -78,11 +78,12 @@ from ..models import Model
 from ..params import ParamSet
 from .checkpoint import ChainStore, read_identity
 from .likelihood import Likelihood, LikelihoodKind
-from .moves import MOVES_DESCRIPTION, SnookerMove, production_moves, warmup_moves
+from .moves import MOVES_DESCRIPTION, SnookerMove, production_moves, proposal_mismatch, warmup_moves
 from .posterior import Posterior
 from .start import initial_walkers, noise_start, start_ball
 
 __all__ = ["SamplerSettings", "SnookerMove", "default_moves", "initial_walkers", "stopping_rule",
+           "integrated_time",
            "sample_posterior", "sample_likelihood",
            "run_ensemble", "start_ball", "noise_start"]
 
@@ -130,21 +131,54 @@ def default_moves():
     return warmup_moves()
 
 
-def stopping_rule(chain: np.ndarray, n: int, settings: SamplerSettings, start: int = 0) -> dict:
+def integrated_time(chain: np.ndarray, c: float = 5.0) -> np.ndarray:
+    """Integrated autocorrelation time per parameter of ``chain (steps, walkers, ndim)`` [steps]:
+    emcee's estimator (``emcee.autocorr.integrated_time``: each walker's normalised
+    autocorrelation function by FFT, averaged over walkers, Sokal's window with ``c = 5``), with
+    the walkers' FFTs done together, one parameter at a time. A parameter some walker never moved
+    in counts as correlated over the whole chain (emcee gives NaN there)."""
+    chain = np.asarray(chain, float)
+    n, _, ndim = chain.shape
+    nfft = 2 * (1 << max(int(n - 1).bit_length(), 0))
+    lags = np.arange(n)
+    tau = np.empty(ndim)
+    for d in range(ndim):
+        x = chain[:, :, d] - chain[:, :, d].mean(axis=0)
+        spec = np.fft.rfft(x, n=nfft, axis=0)
+        acf = np.fft.irfft(spec.real**2 + spec.imag**2, n=nfft, axis=0)[:n]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            f = np.mean(acf / acf[0], axis=1)
+        taus = 2.0 * np.cumsum(f) - 1.0
+        inside = lags < c * taus
+        tau[d] = taus[np.argmin(inside)] if np.any(inside) else taus[-1]
+    return np.where(np.isfinite(tau), tau, float(n))
+
+
+def stopping_rule(chain: np.ndarray, n: int, settings: SamplerSettings, start: int = 0,
+                  cache: dict | None = None) -> dict:
     """The stopping rule (module docstring) at step ``n``, from ``chain[start:n]`` only.
 
-    ``chain`` has shape ``(steps, walkers, ndim)``; ``start`` is where the production phase
-    begins (0: the whole chain). Returns the step, τ_max, the minimum ESS, each criterion's
-    verdict and ``converged``.
+    ``chain`` has shape ``(steps, walkers, ndim)``; ``start`` is where the production segment
+    begins (0: the whole chain); ``cache`` (a dict kept between calls on the same chain) memoises
+    τ of ``chain[start:m]``. Returns the step, τ_max, the minimum ESS, each criterion's verdict and
+    ``converged``.
     """
+    cache = {} if cache is None else cache
+
+    def tau_of(m_):
+        key = (int(start), int(m_))
+        if key not in cache:
+            cache[key] = integrated_time(chain[start : start + m_])
+        return cache[key]
+
     part = chain[start:n]
     m = part.shape[0]
     nwalkers = chain.shape[1]
-    tau = emcee.autocorr.integrated_time(part, tol=0)
+    tau = tau_of(m)
     prev = m - settings.check_every
     change = math.inf
     if prev >= settings.check_every:
-        tau_prev = emcee.autocorr.integrated_time(part[:prev], tol=0)
+        tau_prev = tau_of(prev)
         change = float(np.max(np.abs(tau - tau_prev) / tau))
     burn = int(math.ceil(2 * np.max(tau)))
     ess = nwalkers * max(m - burn, 0) / tau
@@ -226,33 +260,60 @@ def _acceptance(chain: np.ndarray, burn: int) -> float:
 
 
 class _Phases:
-    """The emcee samplers of the two phases over one chain store (module docstring)."""
+    """The emcee samplers over one chain store (module docstring). Ensemble moves until
+    ``warmup``; there the independence proposal is fitted to the warm-up's second half and a
+    production segment starts. At every later ``warmup · 2^k`` the second half of the current
+    segment is compared with the proposal (:func:`~bayes_emt.inference.moves.proposal_mismatch`);
+    if they differ, a new segment starts there with the proposal refitted to that half. All of it is
+    a function of the stored chain only, so a resume rebuilds the same segments and proposals."""
 
     def __init__(self, target, nwalkers: int, store: ChainStore, warmup: int):
         self.target, self.nwalkers, self.store, self.warmup = target, nwalkers, store, warmup
-        self.production_start = None  # step where the frozen proposal took over (None: not yet)
         self._warm = self._sampler(warmup_moves())
-        self._prod = None
+        self._segments: list[list] = []  # [start, proposal points' (mean, cov) or None, sampler or None]
+        self._decided = 0  # refit points up to here are decided
 
     def _sampler(self, moves):
         return emcee.EnsembleSampler(self.nwalkers, self.target.ndim, self.target.emcee_log_prob,
                                      moves=moves, vectorize=True, backend=self.store)
 
+    def _decide(self, n: int) -> None:
+        """Decide every refit point up to step ``n`` (needs the chain up to it)."""
+        if self.warmup == 0:
+            return
+        chain = None
+        r = self.warmup if not self._segments else 2 * self._decided
+        while r <= n:
+            if chain is None:
+                chain = self.store.get_chain()
+            if not self._segments:
+                pts = chain[r // 2 : r].reshape(-1, chain.shape[-1])
+                self._segments.append([r, pts, None])
+            else:
+                start, pts, _ = self._segments[-1]
+                new = chain[(start + r) // 2 : r].reshape(-1, chain.shape[-1])
+                if proposal_mismatch(pts, new):
+                    self._segments.append([r, new, None])
+            self._decided = r
+            r *= 2
+
     def at(self, n: int):
-        """The sampler for the steps from ``n`` on."""
-        if n < self.warmup or self.warmup == 0:
+        """The sampler for the steps from ``n`` on (a block never crosses a refit point)."""
+        self._decide(n)
+        if not self._segments or n < self._segments[0][0]:
             return self._warm
-        if self._prod is None and self.production_start is None:
-            chain = self.store.get_chain()
-            pts = chain[self.warmup // 2 : self.warmup].reshape(-1, chain.shape[-1])
-            moves = production_moves(pts)
-            self.production_start = self.warmup if moves is not None else 0
-            self._prod = self._sampler(moves) if moves is not None else self._warm
-        return self._prod
+        seg = self._segments[-1]
+        if seg[2] is None:
+            moves = production_moves(seg[1])
+            seg[2] = self._sampler(moves) if moves is not None else self._warm
+        return seg[2]
 
     def start(self, n: int) -> int:
-        """Where the stopping rule's chain begins at step ``n``."""
-        return self.production_start if self.production_start and n > self.production_start else 0
+        """Where the stopping rule's chain begins at step ``n``: the start of the segment step
+        ``n − 1`` belongs to (0 during the warm-up)."""
+        self._decide(n - 1)
+        starts = [s for s, _, _ in self._segments if s <= n - 1]
+        return starts[-1] if starts else 0
 
 
 def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, max_steps: int | None = None,
@@ -288,12 +349,13 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
                file=sys.stderr, desc=f"emcee {target.label}", unit="step", leave=False)
     history: list[dict] = []
     verdict = None
+    tau_cache: dict = {}
     try:
         while True:
             n = store.iteration
             sampler = phases.at(n)
             if n > 0 and (n % settings.check_every == 0 or n >= max_steps):
-                verdict = stopping_rule(store.get_chain(), n, settings, phases.start(n))
+                verdict = stopping_rule(store.get_chain(), n, settings, phases.start(n), tau_cache)
                 history.append(verdict)
                 bar.set_postfix(tau_max=f"{verdict['tau_max']:.0f}", n_tau=f"{verdict['n_over_tau']:.0f}",
                                 ess=f"{verdict['ess_min']:.0f}")
@@ -316,14 +378,15 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
         warnings.warn(f"{target.label}: {message}", ConvergenceWarning, stacklevel=3)
     chain = store.get_chain()
     s0 = phases.start(chain.shape[0])
-    tau = emcee.autocorr.integrated_time(chain[s0:], tol=0)
+    tau = tau_cache.get((s0, chain.shape[0] - s0))
+    tau = integrated_time(chain[s0:]) if tau is None else tau
     burn = min(s0 + int(math.ceil(2 * np.max(tau))), chain.shape[0] - 1)
     return {"chain": chain, "log_prob": store.get_log_prob(), "blobs": store.get_blobs(), "tau": tau,
             "burn": burn, "max_draws": settings.max_draws,
             "converged": verdict["converged"], "seed": seed, "message": message, "history": history,
             "acceptance": _acceptance(chain, burn), "wall_time": time.perf_counter() - t0,
             "settings": {**asdict(settings), "max_steps": max_steps, "nwalkers": nwalkers,
-                         "moves": ident["moves"], "production_start": phases.production_start or 0},
+                         "moves": ident["moves"], "production_start": s0},
             "checkpoint": None if checkpoint is None else str(checkpoint)}
 
 

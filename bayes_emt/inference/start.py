@@ -115,14 +115,23 @@ def initial_walkers(lik, fit: FitResult, nwalkers: int, rng: np.random.Generator
     noise_spread = [1.0, 0.05] if absolute else list(spread)
     if lik.sample_nu:
         noise_spread.append(0.3)
-    return start_ball(lik, mode[:k], cov, list(mode[k:]), noise_spread, nwalkers, rng)
+    # the other noise scale is not identified below the level where it starts to matter: its
+    # posterior is the prior there, a plateau reaching down to the prior's bound; start the walkers
+    # spread over it (a ball around the mode's arbitrary point on it takes the warm-up long to widen)
+    if absolute:
+        i, edge = k, mode[k + 1] - math.log(float(np.max(np.abs(lik.meas.Y)))) - 1.0
+    else:
+        i, edge = k + 1, mode[k] + math.log(min_abs) - 1.0
+    uniform = {i: (lo[i], edge)} if np.isfinite(lo[i]) and edge > lo[i] + 1.0 else None
+    return start_ball(lik, mode[:k], cov, list(mode[k:]), noise_spread, nwalkers, rng, uniform=uniform)
 
 
-def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Generator) -> np.ndarray:
+def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Generator, *,
+               uniform: dict[int, tuple[float, float]] | None = None) -> np.ndarray:
     """``nwalkers`` sampling-space points: the first ``len(z0)`` coordinates from ``N(z0, cov)``,
-    the rest (noise) from independent normals (``centre``, ``spread``); clipped to the prior
-    support of ``target.params``, each with a finite posterior; the ball shrinks if too many fall
-    outside."""
+    the rest (noise) from independent normals (``centre``, ``spread``), except coordinates ``i`` of
+    ``uniform`` (``{i: (low, high)}``), drawn uniformly; clipped to the prior support of
+    ``target.params``, each with a finite posterior; the ball shrinks if too many fall outside."""
     k = len(z0)
     cov = 0.5 * (cov + cov.T) + np.eye(k) * 1e-12 * np.max(np.abs(np.diag(cov)))
     lo, hi = target.params.bounds_z()
@@ -132,8 +141,11 @@ def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Ge
         n = nwalkers - filled
         zm = rng.multivariate_normal(z0, cov, size=n, method="eigh")
         zn = np.asarray(centre) + np.asarray(spread) * rng.standard_normal((n, len(centre)))
+        cand = np.hstack([zm, zn])
+        for i, (a, b) in (uniform or {}).items():
+            cand[:, i] = rng.uniform(a, b, size=n)
         span = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
-        cand = np.clip(np.hstack([zm, zn]), lo + 1e-9 * span, hi - 1e-9 * span)
+        cand = np.clip(cand, lo + 1e-9 * span, hi - 1e-9 * span)
         good = cand[np.isfinite(target.log_posterior_z(cand))][:n]
         out[filled : filled + good.shape[0]] = good
         filled += good.shape[0]

@@ -42,6 +42,8 @@ __all__ = [
     "uniform_rings",
     "bessel_ratio_jw",
     "bessel_eddy_jw",
+    "table_position",
+    "bessel_h_into",
     "resistance_polynomials",
     "inductance_polynomials",
     "lossy_inductance_polynomials",
@@ -59,6 +61,15 @@ _ASYMPTOTIC_W = 1e3
 
 def mechanical_polynomial(s, zeta, omega0):
     """``s² + 2 ζ ω0 s + ω0²`` (the mass-normalised mechanical impedance times s)."""
+    s = np.asarray(s)
+    if np.iscomplexobj(s) and s.size and np.all(s.real == 0):  # s = jω: real and imaginary parts apart
+        w = s.imag
+        zeta, omega0 = np.asarray(zeta, float), np.asarray(omega0, float)
+        re = omega0 * omega0 - w * w
+        im = 2.0 * zeta * omega0 * w
+        out = np.empty(np.broadcast_shapes(re.shape, im.shape), complex)
+        out.real, out.imag = re, im
+        return out
     return s * s + 2.0 * zeta * omega0 * s + omega0 * omega0
 
 
@@ -146,46 +157,54 @@ def _h_table() -> tuple[np.ndarray, ...]:
     return out
 
 
-def _h_at(half_log_alpha, half_log_omega):
-    """``(Re h, Im h)`` at ``t = ½ ln α + ½ ln ω`` (arrays broadcasting to the result's shape)."""
+def table_position(half_log_alpha, half_log_omega, out=None):
+    """Position in the Bessel table [intervals] of ``t = ½ ln α + ½ ln ω`` (``α`` [s], ``ω``
+    [rad/s]; the halves broadcast, e.g. ``(W, 1)`` against ``(F,)``)."""
+    a = (np.asarray(half_log_alpha, float) - _TABLE_T[0]) / _TABLE_STEP
+    return np.add(a, np.asarray(half_log_omega, float) / _TABLE_STEP, out=out)
+
+
+def bessel_h_into(pos, re, im, idx, frac, tmp) -> None:
+    """``h = w I1(w)/I0(w)`` at table positions ``pos`` (:func:`table_position`), written into
+    ``re``, ``im``: the allocation-free core of :func:`bessel_eddy_jw`. ``idx`` (intp), ``frac``
+    and ``tmp`` are scratch arrays of ``pos``'s shape; ``pos`` is left unchanged except where it
+    lies outside the table (those points are evaluated exactly instead)."""
     tab = _h_table()
     last = tab[0].size  # the table's intervals are 0 .. last - 1
-    pos = (np.asarray(half_log_alpha, float) - _TABLE_T[0]) / _TABLE_STEP \
-        + np.asarray(half_log_omega, float) / _TABLE_STEP
-    pos = np.asarray(pos, float)
     lo, hi = (float(pos.min()), float(pos.max())) if pos.size else (0.0, 0.0)
-    inside = lo >= 0.0 and hi <= last  # False for NaN too
     mask = None
-    if not inside:
-        mask = ~((pos >= 0.0) & (pos <= last))
-        pos = np.where(mask, 0.0, pos)
-    i = pos.astype(np.intp)
-    np.minimum(i, last - 1, out=i)
-    x = pos - i
-    parts = []
-    for c0, c1, c2, c3 in (tab[:4], tab[4:]):
-        acc = np.take(c3, i)
-        acc *= x
-        acc += np.take(c2, i)
-        acc *= x
-        acc += np.take(c1, i)
-        acc *= x
-        acc += np.take(c0, i)
-        parts.append(acc)
-    re, im = parts
+    if not (lo >= 0.0 and hi < last):  # also for NaN
+        mask = ~((pos >= 0.0) & (pos < last))
+        t_out = pos[mask] * _TABLE_STEP + _TABLE_T[0]
+        pos[mask] = 0.0
+    np.copyto(idx, pos, casting="unsafe")  # truncation = floor for 0 <= pos < last
+    np.subtract(pos, idx, out=frac)
+    for (c0, c1, c2, c3), acc in ((tab[:4], re), (tab[4:], im)):
+        np.take(c3, idx, out=acc, mode="clip")  # "raise" would buffer out
+        for c in (c2, c1, c0):
+            acc *= frac
+            acc += np.take(c, idx, out=tmp, mode="clip")
     if mask is not None and np.any(mask):
-        t = np.broadcast_to(np.asarray(half_log_alpha, float) + np.asarray(half_log_omega, float),
-                            pos.shape)[mask]
         with np.errstate(all="ignore"):
-            w = np.exp(t) * _E45
+            w = np.exp(t_out) * _E45
             h = w * _i1_over_i0(w)
         re[mask], im[mask] = h.real, h.imag
-    return re, im
+        pos[mask] = (t_out - _TABLE_T[0]) / _TABLE_STEP
+
+
+def _h_at(half_log_alpha, half_log_omega):
+    """``(Re h, Im h)`` at ``t = ½ ln α + ½ ln ω`` (arrays broadcasting to the result's shape)."""
+    pos = np.asarray(table_position(half_log_alpha, half_log_omega), float)
+    shape = pos.shape
+    pos = pos.reshape(-1)
+    re, im, frac, tmp = (np.empty_like(pos) for _ in range(4))
+    bessel_h_into(pos, re, im, np.empty(pos.shape, np.intp), frac, tmp)
+    return re.reshape(shape), im.reshape(shape)
 
 
 def bessel_ratio_jw(alpha, omega) -> np.ndarray:
     """``I1(w)/I0(w)`` for ``w = sqrt(j α ω)`` (angle 45°) [1], complex, broadcast shape of
-    ``alpha`` [s] and ``omega`` [rad/s] (both > 0). Equals ``-j J1(-jw)/J0(-jw)``; from the table
+    ``alpha`` [s] and ``omega`` [rad/s] (both > 0). Equals ``j J1(-jw)/J0(-jw)``; from the table
     for ``1e-4 ≤ |w| ≤ 1e3`` (relative error < 1e-13), :func:`_i1_over_i0` outside it."""
     with np.errstate(divide="ignore", invalid="ignore"):
         la, lw = 0.5 * np.log(np.asarray(alpha, float)), 0.5 * np.log(np.asarray(omega, float))
@@ -273,13 +292,35 @@ def ring_ladder(s, Pg, P, R, n_turns):
     """Model NL: coil coupled to ``n`` resistive rings (eq. 41) [ohm].
 
     ``s`` has shape ``(F,)`` (or broadcasts as ``(..., F)``); ``Pg`` shape ``(...)``; ``P, R``
-    shape ``(..., n)``. Returns ``(..., F)``. O(n) per frequency after one eigen-decomposition.
+    shape ``(..., n)``. Returns ``(..., F)``. On the imaginary axis (``s = jω``, up to
+    :data:`LADDER_POLY_MAX_RINGS` rings) through :func:`ladder_polynomials` and real matrix
+    products; elsewhere O(n) per frequency after one eigen-decomposition
+    (:func:`ring_ladder_modes`).
     """
-    gap, Lk, tau = ring_ladder_modes(Pg, P, R, n_turns)
     s = np.asarray(s, dtype=complex)
+    P = np.asarray(P, dtype=float)
+    if (s.ndim == 1 and s.size and P.shape[-1] <= LADDER_POLY_MAX_RINGS and np.all(s.real == 0)
+            and np.all(s.imag > 0)):
+        num, den = ladder_polynomials(Pg, P, R, n_turns)
+        with np.errstate(over="ignore"):
+            basis = jw_power_basis(s.imag, num.shape[-1] - 1)
+        if all(np.all(np.isfinite(b)) for b in basis):
+            nr, ni = polynomial_jw(num, basis=basis)
+            dr, di = polynomial_jw(den, basis=basis)
+            with np.errstate(all="ignore"):
+                out = np.empty(nr.shape, complex)
+                out.real, out.imag = nr, ni
+                den_c = np.empty(dr.shape, complex)
+                den_c.real, den_c.imag = dr, di
+                return out / den_c
+    gap, Lk, tau = ring_ladder_modes(Pg, P, R, n_turns)
     ss = s[..., None]  # (..., F, 1)
     modal = np.sum(Lk[..., None, :] * ss / (1.0 + tau[..., None, :] * ss), axis=-1)
     return gap[..., None] * s + modal
+
+
+#: Most rings :func:`ring_ladder` evaluates through polynomials (degree n + 1 in s) on s = jω.
+LADDER_POLY_MAX_RINGS = 12
 
 
 def uniform_rings(Lg, alpha, beta, n_rings, n_turns):
@@ -403,10 +444,12 @@ def jw_power_basis(omega, degree: int) -> tuple[np.ndarray, np.ndarray]:
     (lowest power first): row ``i`` of ``even`` is ``(−1)^i ω^{2i}``, of ``odd`` ``(−1)^i ω^{2i+1}``.
     """
     omega = np.asarray(omega, float)
-    k = np.arange(degree + 1)
-    powers = omega[None, :] ** k[:, None]
-    sign = np.where((k // 2) % 2 == 0, 1.0, -1.0)[:, None]
-    basis = sign * powers
+    basis = np.empty((degree + 1, omega.size))
+    basis[0] = 1.0
+    for k in range(1, degree + 1):  # (jω)^k = j ω (jω)^(k−1): products, not pow()
+        np.multiply(basis[k - 1], omega, out=basis[k])
+    basis[2::4] *= -1.0
+    basis[3::4] *= -1.0
     return np.ascontiguousarray(basis[0::2]), np.ascontiguousarray(basis[1::2])
 
 
