@@ -58,27 +58,27 @@ class _Workspace(threading.local):
         return a
 
 
-def _rational_handlers(model: Model) -> dict:
-    n_turns = model.n_turns
-    rings = model.rings
+_RATIONAL_TERMS = ("motional", "resistance", "inductance", "gap_inductance", "lossy_inductance",
+                   "ring_ladder", "uniform_rings")
 
-    def ladder(v):
+
+def _term_polynomials(name: str, v: np.ndarray, n_turns: float, rings: int | None):
+    """``(num, den)`` of one rational catalogue term for its parameter columns ``v (W, k)``."""
+    if name == "motional":
+        return T.motional_polynomials(v[:, 0], v[:, 1], v[:, 2])
+    if name == "resistance":
+        return T.resistance_polynomials(v[:, 0])
+    if name in ("inductance", "gap_inductance"):
+        return T.inductance_polynomials(v[:, 0])
+    if name == "lossy_inductance":
+        return T.lossy_inductance_polynomials(v[:, 0], v[:, 1])
+    if name == "ring_ladder":
         n = (v.shape[1] - 1) // 2
         return T.ladder_polynomials(v[:, 0], v[:, 1 : n + 1], v[:, n + 1 :], n_turns)
-
-    def uniform(v):
+    if name == "uniform_rings":
         Pg, P, R = T.uniform_rings(v[:, 0], v[:, 1], v[:, 2], rings, n_turns)
         return T.ladder_polynomials(Pg, P, R, n_turns)
-
-    return {
-        "motional": lambda v: T.motional_polynomials(v[:, 0], v[:, 1], v[:, 2]),
-        "resistance": lambda v: T.resistance_polynomials(v[:, 0]),
-        "inductance": lambda v: T.inductance_polynomials(v[:, 0]),
-        "gap_inductance": lambda v: T.inductance_polynomials(v[:, 0]),
-        "lossy_inductance": lambda v: T.lossy_inductance_polynomials(v[:, 0], v[:, 1]),
-        "ring_ladder": ladder,
-        "uniform_rings": uniform if rings is not None else None,
-    }
+    raise KeyError(name)
 
 
 class JwPlan:
@@ -89,11 +89,10 @@ class JwPlan:
     """
 
     def __init__(self, model: Model, omega):
-        self.model = model
         self.omega = np.asarray(omega, float)
         if self.omega.ndim != 1 or not np.all(self.omega > 0):
             raise NotImplementedError("the fast path needs positive angular frequencies")
-        handlers = _rational_handlers(model)
+        self.n_turns, self.rings, self.ndim = float(model.n_turns), model.rings, model.ndim
         self._rational, self._bessel = [], []
         start = 0
         for term in model.terms:
@@ -103,8 +102,8 @@ class JwPlan:
                 raise NotImplementedError(f"term {term.name!r} is not a series impedance")
             if term.name == "bessel_eddy" and len(term.params) == 2:
                 self._bessel.append(sl)
-            elif handlers.get(term.name) is not None:
-                self._rational.append((sl, handlers[term.name]))
+            elif term.name in _RATIONAL_TERMS and (term.name != "uniform_rings" or model.rings is not None):
+                self._rational.append((sl, term.name))
             else:
                 raise NotImplementedError(f"no fast path for term {term.name!r}")
         if start != model.ndim or not self._rational:
@@ -156,8 +155,8 @@ class JwPlan:
     def _polynomials(self, theta):
         """Sum of the rational terms as ``(num, den)``, each ``(W, d + 1)``."""
         acc = None
-        for sl, fn in self._rational:
-            pair = fn(theta[:, sl])
+        for sl, name in self._rational:
+            pair = _term_polynomials(name, theta[:, sl], self.n_turns, self.rings)
             acc = pair if acc is None else T.add_rational(acc, pair)
         return acc
 

@@ -6,8 +6,11 @@ Sampler
 ensemble: on two cores that beats a process pool), ``4·ndim`` walkers, in sampling space (log of
 positive parameters, :mod:`bayes_emt.params`). The moves (:mod:`bayes_emt.inference.moves`) come
 in two phases: ``warmup`` (200) steps of ensemble moves (ensemble-t independence, differential
-evolution, corrected snooker), then a multivariate-t independence proposal frozen on the second
-half of the warm-up, mixed with differential evolution. Every move keeps the posterior invariant.
+evolution, corrected snooker), then production segments: a multivariate-t independence proposal
+frozen on the second half of the steps before, mixed with differential evolution. At each
+``warmup · 2^k`` the second half of the current segment is compared with the sample the proposal
+was fitted to; only if they disagree does a new segment begin there, with the proposal refitted.
+Every move keeps the posterior invariant.
 Each step stores one blob per walker, its total log-likelihood (``log_prob − log_likelihood`` is
 then the log prior in sampling space, for bridge sampling and prior-sensitivity checks).
 
@@ -24,8 +27,8 @@ by quasi-Newton steps whitened with the fit's covariance (:func:`posterior_mode`
 Stopping rule
 -------------
 Checked every ``check_every`` (100) steps, at fixed multiples of it, as a pure function of the
-stored chain (:func:`stopping_rule`), on the production part (after the warm-up) once there is
-one: with τ the integrated autocorrelation time of each parameter there, stop when
+stored chain (:func:`stopping_rule`), on the current production segment once there is one: with
+τ the integrated autocorrelation time of each parameter there, stop when
 
 * that part is at least ``min_tau_multiple`` (50) τ_max long (STACK.md: trust τ then);
 * every τ changed by less than ``tau_rtol`` (5 %) since the previous check — not STACK.md's 1 %:
@@ -34,7 +37,7 @@ one: with τ the integrated autocorrelation time of each parameter there, stop w
   noise), so 1 % would buy many more steps for no change in the answer; the 50 τ and ESS
   conditions carry the weight;
 * the effective sample size ``ESS_i = n_walkers (n − burn) / τ_i`` reaches ``ess_target``
-  (1000) for every parameter, with burn-in ``⌈2 τ_max⌉`` steps after the warm-up.
+  (1000) for every parameter, with burn-in ``⌈2 τ_max⌉`` steps after the segment's start.
 
 A run that reaches ``max_steps`` first returns with ``converged = False`` and warns
 (:class:`~bayes_emt.errors.ConvergenceWarning`): never a quiet number.
@@ -45,8 +48,8 @@ The run is a deterministic function of (data, model and priors, likelihood, seed
 The walkers' start comes from ``numpy.random.default_rng(seed)``. emcee draws from a legacy
 ``RandomState``; this driver re-seeds it at every multiple of ``reseed_every`` (100) steps from
 ``SeedSequence([seed, block])``, so the random numbers of steps ``[100 b, 100 (b + 1))`` depend
-on the seed and ``b`` only, not on how the run was cut into calls. The frozen proposal is a
-function of the stored warm-up, recomputed identically on resume.
+on the seed and ``b`` only, not on how the run was cut into calls. The segments and their
+proposals are functions of the stored chain, rebuilt identically on resume.
 
 With a checkpoint, the chain is written to HDF5 at the end of every block
 (:class:`~bayes_emt.inference.checkpoint.ChainStore`: chunked by blocks, compressed, no per-step
