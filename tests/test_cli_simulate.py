@@ -15,7 +15,7 @@ def _params(tmp_path, name, rings=None, table=None):
     model = build_model(name, rings=rings)
     path = tmp_path / f"{name}.json"
     # the shape paramfile.read_param_file reads and `bayes-emt fit --json` writes
-    path.write_text(json.dumps({"model": model.name, "rings": model.rings, "n_turns": model.n_turns,
+    path.write_text(json.dumps({"model": model.spec, "rings": model.rings, "n_turns": model.n_turns,
                                 "parameters": dict(PAPER_TABLES[table or name])}))
     return path
 

@@ -150,3 +150,36 @@ def test_jw_power_basis_is_the_real_and_imaginary_parts_of_powers(degree):
     np.testing.assert_allclose(even, ref[0::2].real, rtol=1e-15)
     np.testing.assert_allclose(odd, ref[1::2].imag, rtol=1e-15)
     assert np.all(ref[0::2].imag == 0) and np.all(ref[1::2].real == 0)
+
+
+def test_every_term_kernel_on_jw_equals_its_evaluate():
+    # the terms own their fast kernels (Term.jw_rational / jw_bessel): each one offered must be what
+    # the term's evaluate gives on s = jω, at parameter sets spread over the whole prior
+    from bayes_emt.models import TERMS
+
+    omega = np.geomspace(1.0, 1e5, 120)
+    s = 1j * omega
+    offered = set()
+    for term_id, cls in TERMS.items():
+        term = cls.make()
+        u = np.random.default_rng(len(term_id)).uniform(0.05, 0.95, (6, len(term.params)))
+        v = term.params.prior_transform(u)
+        pair, bessel = term.jw_rational(v), term.jw_bessel(v)
+        assert pair is None or bessel is None, term_id
+        if pair is None and bessel is None:
+            continue
+        assert not term.needs, term_id  # a kernel sees only the term's own parameters
+        offered.add(term_id)
+        ref = term.evaluate(s, v, {})
+        if pair is not None:
+            nr, ni = T.polynomial_jw(pair[0], omega)
+            dr, di = T.polynomial_jw(pair[1], omega)
+            got = (nr + 1j * ni) / (dr + 1j * di)
+        else:
+            br, bi = T.bessel_eddy_jw(omega, bessel[0][:, None], bessel[1][:, None])
+            got = br + 1j * bi
+        np.testing.assert_allclose(got, ref, rtol=1e-10, err_msg=term_id)
+    # the paper's terms all have one; so do the rational augmentations
+    assert offered == {"motional", "resistance", "inductance", "gap_inductance", "lossy_inductance",
+                       "bessel_eddy", "ring_ladder", "uniform_rings", "winding_capacitance",
+                       "second_resonance", "lr2", "lead_impedance"}

@@ -14,12 +14,12 @@ from bayes_emt.estimation.hankel import (
     blocked_state_space,
     choose_rings,
     fold_out_of_band,
+    foster_parts,
     gramian_hsv,
     hankel_singular_values,
     select_rings,
 )
 from bayes_emt.io import write_measurement
-from bayes_emt.models.rational import foster_form
 from bayes_emt.reference import PAPER_TABLES
 
 TABLE5 = PAPER_TABLES["NL"]
@@ -98,7 +98,7 @@ def test_hsv_invariant_to_state_scaling_and_agree_with_square_root_method(make):
         Ti = np.diag(1 / np.diag(T))
         np.testing.assert_allclose(gramian_hsv(T @ A @ Ti, T @ B, C @ Ti), hsv, rtol=1e-8)
     # the physical (inductor current) coordinates: x = M^-½ ξ with M = diag(G, L_k)
-    _, G, Lk, _ = foster_form(m, th)
+    _, G, Lk, _ = foster_parts(m, th)
     Mh = np.sqrt(np.r_[G, Lk])
     np.testing.assert_allclose(gramian_hsv(A * Mh[None, :] / Mh[:, None], B / Mh[:, None], C * Mh[None, :]),
                                hsv, rtol=1e-8)
@@ -108,7 +108,7 @@ def test_out_of_band_modes_are_folded():
     # a ring with its corner at 0.01 rad/s acts in 10..1e5 rad/s as the resistor L/τ in series
     # with R0: folded, it gets HSV 0 and the sum identity holds with the augmented R0
     m, th = _nl(2, NL2 | {"R1": 1e-12})
-    R0, G, Lk, tau = foster_form(m, th)
+    R0, G, Lk, tau = foster_parts(m, th)
     assert (1 / tau).min() < 1.0
     R0f, Gf, Lkf, _, nf = fold_out_of_band(R0, G, Lk, tau, (10.0, 1e5))
     assert nf == 1 and Lkf.size == 1 and Gf == G and R0f > R0

@@ -1,5 +1,6 @@
 """The likelihood's fast path (inference/fastpath.py, inference/noise.py) against the plain formula
-evaluated through the model: every model, every noise regime, weights, unsupported models, pickling."""
+evaluated through the model: every model, every noise regime, weights, augmented models (fast where
+every term offers a kernel, general otherwise), pickling."""
 
 import math
 import pickle
@@ -13,14 +14,14 @@ from bayes_emt.inference.likelihood import Likelihood
 from bayes_emt.inference.noise import SERIES_X
 from bayes_emt.measurement import Measurement
 from bayes_emt.models import MODEL_NAMES, Term
-from bayes_emt.params import LogUniform, ParamSet, ParamSpec
+from bayes_emt.models.term import specs
 from bayes_emt.reference import PAPER_TABLES
 
 OMEGA = np.geomspace(10, 1e5, 300)
 
 
 def _theta0(model):
-    return model.vector(PAPER_TABLES["UD" if model.name == "UL" else model.name])
+    return model.vector(PAPER_TABLES["UD" if model.base == "UL" else model.base])
 
 
 def _reference_total(model, meas, theta):
@@ -87,21 +88,70 @@ def test_non_finite_and_unphysical_sets_give_minus_inf():
     assert np.isfinite(ll[0]) and ll[1] == -np.inf and ll[2] == -np.inf
 
 
-def test_plan_reproduces_the_model_and_refuses_what_it_does_not_know():
+class _NoKernel(Term):
+    """A parallel capacitance written as a plain term: no fast kernel (Term's defaults)."""
+
+    id = "test_capacitance_without_kernel"
+    stage = "parallel"
+    augmentation = True
+
+    @classmethod
+    def default_params(cls):
+        return specs("Cp")
+
+    def evaluate(self, s, v, other):
+        return s * v[:, 0:1]
+
+
+# the augmentation's values: small enough to keep the base model's character, large enough to matter
+_AUG_VALUES = {"winding_capacitance": [2e-9], "lead_impedance": [0.3, 2e-6], "lr2": [2e-3, 40.0],
+               "second_resonance": [0.05, 2 * math.pi * 800.0, 3.0], "suspension_creep": [0.05],
+               "semi_inductance": [0.01, 0.6]}
+
+
+def _augmented(spec):
+    model = build_model(spec)
+    base, *augs = spec.split("+")
+    return model, np.r_[_theta0(build_model(base)), *[_AUG_VALUES[a] for a in augs]]
+
+
+def test_plan_reproduces_the_model_for_every_model():
     rng = np.random.default_rng(4)
     for name in MODEL_NAMES:
         model = build_model(name)
         plan = JwPlan.build(model, OMEGA)
         theta = _theta0(model) * np.exp(0.5 * rng.standard_normal((5, model.ndim)))
         np.testing.assert_allclose(plan.admittance(theta), model.admittance(OMEGA, theta), rtol=1e-10)
-    # a term the plan does not know (here: a parallel capacitance) leaves the model's own path
-    cap = Term("winding_capacitance", "parallel", "electrical",
-               ParamSet([ParamSpec("Cp", "F", "Cp", LogUniform(1e-13, 1e-5))]), lambda s, v: v[:, 0:1] * s)
-    aug = build_model("I").with_term(cap)
-    assert JwPlan.build(aug, OMEGA) is None
-    meas = simulate(build_model("I"), _theta0(build_model("I")), OMEGA, noise=0.002, seed=3)
+
+
+@pytest.mark.parametrize("spec, fast", [
+    ("NL+winding_capacitance", True), ("I+winding_capacitance+lead_impedance", True),
+    ("UD+lr2+second_resonance", True), ("II+second_resonance", True),
+    ("UD+winding_capacitance", False),  # a parallel term beside the Bessel kernel
+    ("NL+suspension_creep", False), ("III+semi_inductance", False)])
+def test_augmented_models_take_the_fast_path_when_every_term_offers_a_kernel(spec, fast):
+    model, th = _augmented(spec)
+    assert (JwPlan.build(model, OMEGA) is not None) is fast
+    meas = simulate(model, th, OMEGA, noise=0.002, seed=3)
+    lik = Likelihood(model, meas)
+    assert (lik._plan is not None) is fast
+    rng = np.random.default_rng(6)
+    theta = np.r_[th, 0.002, 1e-8] * np.exp(0.05 * rng.standard_normal((7, th.size + 2)))
+    np.testing.assert_allclose(lik(theta), _reference_total(model, meas, theta), rtol=1e-10)
+    np.testing.assert_allclose(lik.model_admittance(theta[:, : model.ndim]),
+                               model.admittance(OMEGA, theta[:, : model.ndim]), rtol=1e-10)
+
+
+def test_a_term_without_a_kernel_leaves_the_model_on_its_own_path():
+    # a term written with nothing but evaluate (Term's jw_rational/jw_bessel give None): no plan,
+    # the same likelihood through Model.admittance
+    base = build_model("I")
+    aug = base.with_term(_NoKernel.make())
+    assert aug.jw_form(np.ones((1, aug.ndim))) is None and JwPlan.build(aug, OMEGA) is None
+    meas = simulate(base, _theta0(base), OMEGA, noise=0.002, seed=3)
     lik = Likelihood(aug, meas)
-    theta = np.r_[_theta0(build_model("I")), 1e-9, 0.002, 1e-8]
+    assert lik._plan is None
+    theta = np.r_[_theta0(base), 1e-9, 0.002, 1e-8]
     np.testing.assert_allclose(lik(theta), _reference_total(aug, meas, theta), rtol=1e-12)
 
 

@@ -164,10 +164,15 @@ def test_bad_model_requests_raise_specific_errors():
 
 def test_with_term_and_priors_compose():
     model = build_model("I")
-    from bayes_emt.models import make_term
+    from bayes_emt.models import make_term, model_from_dict
 
-    aug = model.with_term(make_term("bessel_eddy"))
-    assert aug.names[-2:] == ("alpha", "beta") and aug.name == "I+bessel_eddy"
+    aug = model.with_term(make_term("winding_capacitance"))
+    assert aug.names[-1] == "Cp" and aug.spec == "I+winding_capacitance" and aug.base == "I"
+    # a combination of base terms that is none of the paper's models keeps its terms as its name,
+    # and rebuilds from its record all the same
+    odd = model.with_term(make_term("bessel_eddy"))
+    assert odd.names[-2:] == ("alpha", "beta") and odd.base is None and odd.spec == "inductance+bessel_eddy"
+    assert model_from_dict(odd.to_dict()) == odd
     tight = model.with_priors({"R0": {"dist": "uniform", "lower": 2, "upper": 3}})
     assert tight.params["R0"].prior.upper == 3 and tight.names == model.names
     with pytest.raises(KeyError, match="unknown parameter"):

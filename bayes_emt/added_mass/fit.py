@@ -226,7 +226,7 @@ class AddedMassResult:
         """The ``bayes-emt added-mass --json`` record (SPEC §6 names, SI units)."""
         units = {**PHYSICAL_UNITS, **{n: self.model.params[n].unit for n in self.values
                                       if n not in PHYSICAL_UNITS}}
-        rec = {"method": "joint", "model": self.model.name, "rings": self.model.rings,
+        rec = {"method": "joint", "model": self.model.spec, "rings": self.model.rings,
                 "n_turns": self.model.n_turns, "delta_m": self.delta_m,
                 **{k: self.values[k] for k in PHYSICAL_NAMES},
                 "stderr": self.stderr,

@@ -273,13 +273,11 @@ class AddedMassPosterior(Posterior):
 def read_added_mass_posterior(dt) -> AddedMassPosterior:
     """Rebuild an :class:`AddedMassPosterior` from its ``DataTree`` (``kind == "added_mass"``);
     :func:`bayes_emt.api.read_posterior` dispatches here."""
-    from ..inference.posterior import stored_param_set, stored_record
-    from ..models import build_model
+    from ..inference.posterior import stored_model, stored_param_set, stored_record
 
     a = dt.attrs
-    rings = None if int(a["rings"]) < 0 else int(a["rings"])
-    model = build_model(str(a["model"]), rings=rings, n_turns=float(a["n_turns"]))
     specs = stored_param_set(a)
+    model = stored_model(a, ParamSet([]))
     shared = [n for n in model.names if n not in ("zeta", "omega0", "phi")]
     model = model.with_priors({n: specs[n].prior for n in shared})
     joint = JointModel(model, float(a["delta_m_kg"]), physical=ParamSet(specs[:4]))

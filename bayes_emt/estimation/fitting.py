@@ -43,8 +43,9 @@ from scipy import optimize
 
 from ..errors import FitError
 from ..measurement import Measurement
-from ..models import Model, build_model
-from ..models.terms import uniform_rings
+from ..models import Model
+from .adequacy import assess_fit
+from .augment import augmentation_starts
 from .checks import check_fit_inputs
 from .guess import find_initial_estimate
 from .results import FitResult
@@ -168,19 +169,36 @@ def _starts(meas: Measurement, model: Model, initial, max_nfev):
     """Starting vectors (best first), their provenance, and the record for ``info["initial"]``."""
     if initial is not None:
         return [_as_theta(model, initial)], ["user"], {"path": "user"}
-    if model.name == "NL":
+    if model.augmentations:
+        # an augmentation starts from the fit without it and from its own multi-start over the
+        # band where it acts (the term's ``start``); several augmentations are added one by one
+        last = model.augmentations[-1]
+        prev = model.without(last)
+        prev_fit = fit_admittance(meas, prev, max_nfev=max_nfev)
+        aug, thetas = augmentation_starts(meas, prev, prev_fit.theta, last)
+        starts = [model.vector(aug.as_dict(t)) for t in thetas]
+        return (starts, [f"{prev.label} fit + {last.id} start {i}" for i in range(len(starts))],
+                {"path": f"{prev.label} fit + {last.id} start", "base_fit": prev_fit.parameters,
+                 "base_rms_rel_residual": prev_fit.rms_rel_residual, "alternatives": len(starts) - 1})
+    surrogates = [(t, t.surrogate()) for t in model.terms if t.surrogate() is not None]
+    if surrogates:
         # SPEC §3.1: NL starts from the uniform-core estimate through the UL formulas; fitting
         # UL (3 coil parameters) first puts the 2n+1 ring parameters much closer. UL misfits
         # strongly non-uniform cores, and its fit can then settle on a wrong plant: the unfitted
-        # uniform-ring estimate is a second start
-        ul = fit_admittance(meas, build_model("UL", rings=model.rings, n_turns=model.n_turns),
-                            max_nfev=max_nfev)
-        p = ul.parameters
-        Pg, P, R = uniform_rings(p["Lg"], p["alpha"], p["beta"], model.rings, model.n_turns)
+        # estimate is a second start
+        coarse = model
+        for t, (sur, _) in surrogates:
+            coarse = coarse.replace_term(t, sur)
+        cfit = fit_admittance(meas, coarse, max_nfev=max_nfev)
+        vals = cfit.parameters
+        for _, (sur, convert) in surrogates:
+            conv = convert(vals)
+            vals = {k: v for k, v in vals.items() if k not in sur.names}
+            vals.update(conv)
         ie = find_initial_estimate(meas, model)
-        return ([np.concatenate([ul.theta[:4], [Pg], P, R]), ie.theta],
-                ["UL fit -> uniform rings", ie.path],
-                {"path": "UL fit -> uniform rings", "UL": p, "UL_initial": ul.info.get("initial"),
+        label = f"{coarse.label} fit -> " + ", ".join(t.id for t, _ in surrogates)
+        return ([model.vector(vals), ie.theta], [label, ie.path],
+                {"path": label, "surrogate": cfit.parameters, "surrogate_initial": cfit.info.get("initial"),
                  "alternatives": 1, "alternative_path": ie.path})
     ie = find_initial_estimate(meas, model)
     return [ie.theta, *ie.alternatives], [ie.path] + ["runner-up"] * len(ie.alternatives), {
@@ -256,6 +274,7 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     t0 = time.perf_counter()
     if omega_range is not None:
         meas = meas.select(*omega_range)
+    model = model.bind(meas.omega)
     resonance = check_fit_inputs(meas, model.ndim, label=model.label)
     k = model.ndim
     max_nfev = max_nfev or 25 * k
@@ -338,7 +357,10 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
                 if np.isclose(zi, a, atol=1e-6) or np.isclose(zi, b, atol=1e-6)]
     if at_bound:
         info["at_prior_bound"] = at_bound
-    return FitResult(model=model, theta=theta, cov_z=covariance_z(J, r, k),
+    cov = covariance_z(J, r, k)
+    warns = assess_fit(model, meas, theta, z=z, bounds_z=(lo, hi), cov_z=cov, jacobian=J, resonance=resonance,
+                       info=info)
+    return FitResult(model=model, theta=theta, cov_z=cov,
                      chi2=float(r @ r), rms_rel_residual=float(np.sqrt(np.mean(np.abs(rel) ** 2))),
                      n_points=meas.n_points, success=bool(sol.status > 0), message=str(sol.message),
-                     initial=np.array(starts[0], float), info=info)
+                     initial=np.array(starts[0], float), info=info, warnings=warns)

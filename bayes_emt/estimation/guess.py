@@ -48,7 +48,8 @@ from ..errors import FitError
 from ..measurement import Measurement
 from ..models import Model
 from ..models import terms as T
-from ..params import default_spec
+from ..models.linearise import lstsq_real, stacked_real
+from .augment import augmentation_starts, rms_rel_residual, validated
 from .checks import locate_resonance
 
 __all__ = ["InitialEstimate", "initial_estimate", "find_initial_estimate", "levy_plant",
@@ -87,18 +88,6 @@ class InitialEstimate:
     details: dict = field(default_factory=dict)
 
 
-def _lstsq_real(A, b, w):
-    """Solve ``min ||w (A x − b)||`` over real ``x`` for complex ``A, b`` (columns scaled)."""
-    Aw = A * w[:, None]
-    bw = b * w
-    Ar = np.vstack([Aw.real, Aw.imag])
-    br = np.concatenate([bw.real, bw.imag])
-    scale = np.linalg.norm(Ar, axis=0)
-    scale[scale == 0] = 1.0
-    x, *_ = np.linalg.lstsq(Ar / scale, br, rcond=None)
-    return x / scale
-
-
 def levy_plant(omega, Y, *, sk_iterations: int = 3) -> np.ndarray:
     """Levy linearisation of model I over a band: ``(zeta, omega0, phi, R0, L)`` [SI].
 
@@ -113,7 +102,7 @@ def levy_plant(omega, Y, *, sk_iterations: int = 3) -> np.ndarray:
     A = np.column_stack([s, np.ones_like(s), -Y, -Y * s, -Y * s**2, -Y * s**3])
     w = 1.0 / np.abs(s)
     for _ in range(1 + sk_iterations):
-        x = _lstsq_real(A, -(s**2), w)
+        x = lstsq_real(A, -(s**2), w)
         den = x[2] + x[3] * s + x[4] * s**2 + x[5] * s**3
         if not np.all(np.isfinite(den)) or np.any(den == 0):
             break
@@ -138,47 +127,29 @@ def levy_plant(omega, Y, *, sk_iterations: int = 3) -> np.ndarray:
 def _nonneg_fit(cols, target, w):
     """``min ||w (cols x − target)||`` over real ``x ≥ 0`` for complex ``cols (F, c)``, ``target
     (F,)`` (columns scaled, real and imaginary parts stacked). Returns ``(x, weighted rms)``."""
-    A = cols * w[:, None]
-    b = target * w
-    Ar = np.vstack([A.real, A.imag])
-    br = np.concatenate([b.real, b.imag])
-    scale = np.linalg.norm(Ar, axis=0)
-    scale[scale == 0] = 1.0
-    x, _ = optimize.nnls(Ar / scale, br)
+    As, br, scale = stacked_real(cols, target, w)
+    x, _ = optimize.nnls(As, br)
     x = x / scale
     return x, float(np.sqrt(np.mean(np.abs((cols @ x - target) * w) ** 2)))
 
 
-def _unit_coil(model: Model, s, p):
-    """The coil's nonlinear shape at unit scale for each value of its one nonlinear parameter
-    ``p``: ``s/(1 + τ s)`` (II, ``p = τ = L0/Rμ``), the Bessel term at ``β = 1`` (III, UD,
-    ``p = α``) or the uniform rings at ``β = 1`` (UL, NL). Shape ``(A, F)`` [ohm]."""
-    p = np.asarray(p, float)
-    if model.name == "II":
-        return s[None, :] / (1.0 + p[:, None] * s[None, :])
-    if model.name in ("UL", "NL"):
-        Pg, P, R = T.uniform_rings(np.zeros_like(p), p, np.ones_like(p), model.rings, model.n_turns)
-        return T.ring_ladder(s, Pg, P, R, model.n_turns)
-    return T.bessel_eddy(s[None, :], p[:, None], 1.0)
-
-
-def _profile(model: Model, s, Ze, w, grid, R0_fixed=None, basis=None):
-    """For each ``p`` in ``grid``: ``Ze ≈ R0 + c E(p) (+ Lg s)`` with ``R0, c, Lg ≥ 0`` (``R0``
-    a further unknown unless ``R0_fixed``; ``basis`` the precomputed unit coil on ``grid``).
-    Returns ``errs (A,)`` and ``coefs (A, 3)`` as ``(R0, c, Lg)``; ``c = 0`` scores ``inf``."""
-    with_gap = model.name in ("UD", "UL", "NL")
+def _profile(basis, s, Ze, w, grid, R0_fixed, lin_cols):
+    """For each ``p`` in ``grid`` (``basis`` its unit coil, ``(A, F)``): ``Ze ≈ R0 + c E(p) + Σ l_i
+    col_i`` with ``R0, c, l ≥ 0`` (``R0`` a further unknown unless ``R0_fixed``). Returns ``errs
+    (A,)`` and ``coefs (A, 2 + n_lin)`` as ``(R0, c, l...)``; ``c = 0`` scores ``inf``."""
+    n_lin = 0 if lin_cols is None else lin_cols.shape[1]
     target = Ze if R0_fixed is None else Ze - R0_fixed
     errs = np.full(len(grid), np.inf)
-    coefs = np.zeros((len(grid), 3))
-    for i, e in enumerate(_unit_coil(model, s, grid) if basis is None else basis):
-        cols = [e] + ([s] if with_gap else []) + ([np.ones_like(s)] if R0_fixed is None else [])
-        cols = np.column_stack(cols)
+    coefs = np.zeros((len(grid), 2 + n_lin))
+    for i, e in enumerate(basis):
+        cols = [e[:, None]] + ([lin_cols] if n_lin else [])
+        cols = np.hstack(cols + ([np.ones((s.size, 1))] if R0_fixed is None else []))
         if not np.all(np.isfinite(cols)):
             continue
         x, err = _nonneg_fit(cols, target, w)
         if x[0] > 0:
             errs[i] = err
-            coefs[i] = (x[-1] if R0_fixed is None else R0_fixed, x[0], x[1] if with_gap else 0.0)
+            coefs[i] = (x[-1] if R0_fixed is None else R0_fixed, x[0], *x[1 : 1 + n_lin])
     return errs, coefs
 
 
@@ -189,33 +160,34 @@ def _local_minima(errs, n: int):
     return idx[np.argsort(errs[idx], kind="stable")][:n]
 
 
-def _rational_alpha(s, Ze, w, with_gap: bool):
-    """The paper's variant (SPEC §3.1): ``α`` from the first-order rational approximation
-    ``Z_III ≈ k s (α s + 8)/(4 α s + 16)``, ``k = β sqrt(α)`` (plus ``Lg s`` and ``R0``):
-    ``16 Ze = −4 α s Ze + c2 s² + c1' s + 16 R0`` is linear in ``(α, c2, c1', R0)``, with
-    ``c1' = 8k + 16 Lg + 4 α R0`` and ``c2 = (k + 4 Lg) α``. The approximation holds for
-    ``|α s| ≲ 4`` (10 % error there), so the band is narrowed to that and solved again.
-    Returns ``α`` [s] or ``None`` if not physical."""
-    keep = np.ones(s.size, bool)
-    alpha = None
-    cols = np.column_stack([-4 * s * Ze, s * s, s, 16 * np.ones_like(s)])
-    for _ in range(3):
-        if np.count_nonzero(keep) < 5:
-            break
-        a, c2, c1, R0 = _lstsq_real(cols[keep], 16 * Ze[keep], w[keep])
-        c1 = c1 - 4 * a * R0
-        k = c1 / 4 - c2 / a if with_gap else c1 / 8
-        if not (np.isfinite(a) and a > 0 and k > 0):
-            break
-        alpha = float(a)
-        keep = np.abs(s) * alpha <= 4.0
-    return alpha
+def _coil_plan(model: Model):
+    """``(scan, linear)`` from the model's coil terms (their :class:`CoilStart`): the one term
+    with a nonlinear scan parameter (or ``None``) and ``[(name, column, fallback)]`` for every
+    parameter that is itself a linear coefficient. Raises :class:`FitError` when the coil
+    cannot be linearised (a coil term without a start, or two scan parameters)."""
+    scan, linear = None, []
+    for t in model.terms:
+        if not t.coil or t.augmentation:
+            continue
+        cs = t.coil_start()
+        if cs is None:
+            raise FitError(f"model {model.label}: coil term {t.id} has no linear start; give a start")
+        if cs.scan is not None:
+            if scan is not None:
+                raise FitError(f"model {model.label}: two coil terms with nonlinear parameters "
+                               f"({scan.scan}, {cs.scan}); give a start")
+            scan = cs
+        fb = cs.fallback or {}
+        for name, fn in {**(cs.linear or {}), **(cs.linear_with_basis or {})}.items():
+            linear.append((name, fn, fb.get(name)))
+    return scan, linear
 
 
 def _coil_candidates(meas: Measurement, model: Model, plant, cache=None) -> list[tuple[str, dict]]:
     """Coil (and ``R0``) candidates ``[(method, {name: value})]`` from the electrical impedance
-    ``Ze = Z − φ̄² s/(s² + 2ζω0 s + ω0²) = R0 + Zc`` with the plant's mechanics removed.
-    ``cache`` (a dict) keeps the unit-coil scan basis between calls on the same data."""
+    ``Ze = Z − φ̄² s/(s² + 2ζω0 s + ω0²) = R0 + Zc`` with the plant's mechanics removed, driven by
+    the coil terms' starts (:func:`_coil_plan`). ``cache`` (a dict) keeps the unit-coil scan basis
+    between calls on the same data."""
     zeta, omega0, phi, R0_levy, L_lf = plant
     if meas.n_points > _SCAN_POINTS:
         # a log-even subset is plenty for a start and keeps the scans cheap
@@ -229,101 +201,93 @@ def _coil_candidates(meas: Measurement, model: Model, plant, cache=None) -> list
     # errors in Ze count relative to the measured |Z|, as in the fit's objective
     w = 1.0 / np.abs(meas.Z)
     L_lf = max(L_lf, 1e-12)
-    if model.name == "I":
-        (L0, R0), _ = _nonneg_fit(np.column_stack([s, np.ones_like(s)]), Ze, w)
-        return [("linear R0, L0", {"R0": R0 if R0 > 0 else R0_levy, "L0": L0 if L0 > 0 else L_lf})]
+    scan, linear = _coil_plan(model)
+    lin_cols = np.column_stack([fn(s) for _, fn, _ in linear]) if linear else None
+
+    def coil_values(R0, lin):
+        coil = {"R0": R0 if R0 > 0 else R0_levy}
+        for (name, _, fallback), c in zip(linear, lin, strict=True):
+            coil[name] = c if c > 0 or fallback is None else fallback(L_lf)
+        return coil
+
+    if scan is None:
+        cols = np.hstack(([lin_cols] if linear else []) + [np.ones((s.size, 1))])
+        x, _ = _nonneg_fit(cols, Ze, w)
+        return [("linear R0" + "".join(f", {n}" for n, _, _ in linear), coil_values(x[-1], x[:-1]))]
     out = []
-    if model.name == "II":
-        # the paper's linearisation: 1/Zc = (1/L0)/s + 1/Rmu, with the Levy R0; weighted so that
-        # errors in Zc count relative to |Z|
-        Zc = Ze - R0_levy
-        x = _lstsq_real(np.column_stack([1 / s, np.ones_like(s)]), 1.0 / Zc, np.abs(Zc) ** 2 * w)
-        L0 = 1 / x[0] if x[0] > 0 else L_lf
-        Rmu = 1 / x[1] if x[1] > 0 else 1e3 * L0 * omega[-1]
-        out.append(("linear 1/L0, 1/Rmu", {"R0": R0_levy, "L0": float(L0), "Rmu": float(Rmu)}))
-        p_name, p_lo, p_hi = "tau", 1e-12, 1e6
-    else:
-        # NL has no alpha of its own: its uniform-ring start shares the catalogue's alpha range
-        a_prior = default_spec("alpha").prior if model.name == "NL" else model.params["alpha"].prior
-        p_name, p_lo, p_hi = "alpha", a_prior.lower, a_prior.upper
+    if scan.direct is not None:
+        out += scan.direct(s, Ze, w, R0_levy, L_lf)
+    p_lo, p_hi = scan.scan_range
     # p·ω spans 1e-4..1e4 over the data: the eddy current from negligible to fully developed
     grid = np.geomspace(max(1e-4 / omega[-1], p_lo), min(1e4 / omega[0], p_hi), 97)
     step = grid[1] / grid[0]
     found = []
-    if p_name == "alpha":
-        alpha_r = _rational_alpha(s, Ze, w, model.name != "III")
-        if alpha_r is not None and p_lo < alpha_r < p_hi:
-            found.append(("rational Bessel alpha", alpha_r, None))
+    if scan.seeds is not None:
+        for label, p0 in scan.seeds(s, Ze, w, bool(linear)):
+            if p_lo < p0 < p_hi:
+                found.append((label, p0, None))
     cache = {} if cache is None else cache
     if "basis" not in cache:  # independent of the plant: one evaluation serves every band
-        cache["basis"] = _unit_coil(model, s, grid)
+        cache["basis"] = scan.basis(s, grid)
     for R0_fixed, label in ((None, "R0 free"), (R0_levy, "Levy R0")):
-        errs, _ = _profile(model, s, Ze, w, grid, R0_fixed, cache["basis"])
+        errs, _ = _profile(cache["basis"], s, Ze, w, grid, R0_fixed, lin_cols)
         # distinct basins of the profile become distinct candidates (real coils have several)
         for i in _local_minima(errs, 2 if R0_fixed is None else 1):
-            found.append((f"scan {p_name} ({label})", grid[i], R0_fixed))
+            found.append((f"scan {scan.scan} ({label})", grid[i], R0_fixed))
     for method, p0, R0_fixed in found:
-        fine = p0 * np.geomspace(1 / step, step, 21) if method.startswith("scan") else [p0]
-        errs, coefs = _profile(model, s, Ze, w, fine, R0_fixed)
+        fine = p0 * np.geomspace(1 / step, step, 21) if method.startswith("scan") else np.array([p0])
+        errs, coefs = _profile(scan.basis(s, fine), s, Ze, w, fine, R0_fixed, lin_cols)
         if not np.isfinite(errs).any():
             continue
         i = int(np.argmin(errs))
-        R0, c, Lg = coefs[i]
-        coil = {"R0": R0 if R0 > 0 else R0_levy}
-        if model.name == "II":
-            coil.update(L0=c, Rmu=c / fine[i])
-        else:
-            # the Bessel term and the uniform rings both scale with β at fixed α
-            coil.update(alpha=float(fine[i]), beta=c)
-            if model.name != "III":
-                coil["Lg"] = Lg if Lg > 0 else 1e-3 * L_lf
+        coil = coil_values(coefs[i, 0], coefs[i, 2:])
+        coil.update(scan.to_params(float(fine[i]), float(coefs[i, 1])))
         out.append((method, coil))
     return out
+
+
+def _surrogate_model(model: Model):
+    """``(model to estimate, convert)``: terms with a coarser surrogate replaced by it (NL's ring
+    ladder by uniform rings, SPEC §3.1), and ``convert(theta_est) -> theta`` mapping back."""
+    est, conv = model, []
+    for t in model.terms:
+        sur = t.surrogate()
+        if sur is not None:
+            est = est.replace_term(next(x for x in est.terms if x is t), sur[0])
+            conv.append((t, sur[0], sur[1]))
+    if not conv:
+        return model, lambda theta: theta
+
+    def convert(theta):
+        vals = est.as_dict(theta)
+        for _, s, fn in conv:
+            for n in s.names:
+                del vals[n]
+            vals.update(fn(est.as_dict(theta)))
+        return model.vector(vals)
+
+    return est, convert
 
 
 def coil_estimate(meas: Measurement, model: Model, plant) -> dict[str, float]:
     """Coil parameters (and a refitted ``R0`` [ohm]) of ``model`` given ``plant`` =
     ``(zeta, omega0, phi, R0, L)`` [SI] (stage 2 of the module docstring): the candidate with the
-    smallest rms relative residual of the full model. For NL: ``{"R0", "Lg", "alpha", "beta"}`` of
-    the uniform-ring start. Raises :class:`FitError` if there is none."""
-    cands = _coil_candidates(meas, model, plant)
+    smallest rms relative residual of the full model. For a model with a surrogate (NL) the values
+    are the surrogate's (NL: ``{"R0", "Lg", "alpha", "beta"}`` of the uniform-ring start). Raises
+    :class:`FitError` if there is none."""
+    est, _ = _surrogate_model(model.base_model())
+    cands = _coil_candidates(meas, est, plant)
     if not cands:
         raise FitError(f"no physical coil estimate for model {model.label}")
-    thetas = [_to_theta(model, plant, c) for _, c in cands]
-    errs = [_rms_rel(model, meas, t[None, :])[0] for t in thetas]
+    thetas = [_to_theta(est, plant, c) for _, c in cands]
+    errs = [rms_rel_residual(est, meas, t[None, :])[0] for t in thetas]
     return cands[int(np.nanargmin(errs))][1]
 
 
 def _to_theta(model: Model, plant, coil: dict) -> np.ndarray:
     vals = {"zeta": plant[0], "omega0": plant[1], "phi": plant[2], "R0": coil.get("R0", plant[3])}
-    if model.name == "NL":
-        Pg, P, R = T.uniform_rings(coil["Lg"], coil["alpha"], coil["beta"], model.rings, model.n_turns)
-        vals["Pg"] = float(Pg)
-        vals.update({f"P{j + 1}": float(P[j]) for j in range(model.rings)})
-        vals.update({f"R{j + 1}": float(R[j]) for j in range(model.rings)})
-    else:
-        vals.update({k: v for k, v in coil.items() if k in model.names})
+    vals.update({k: v for k, v in coil.items() if k in model.names})
     return model.vector(vals)
-
-
-def _validated(model: Model, theta) -> np.ndarray | None:
-    """``theta`` moved strictly inside the prior support, or ``None`` if it is not finite or has
-    a non-positive value where the parameter must be positive (log transform)."""
-    z = model.params.to_z(theta)
-    if not np.all(np.isfinite(z)):
-        return None
-    lo, hi = model.params.bounds_z()
-    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
-    z = np.clip(z, lo + 1e-6 * width, hi - 1e-6 * width)
-    return model.params.from_z(z)
-
-
-def _rms_rel(model: Model, meas: Measurement, thetas) -> np.ndarray:
-    """rms relative residual of each row of ``thetas`` (non-finite → inf)."""
-    with np.errstate(all="ignore"):
-        d = model.admittance(meas.omega, thetas) - meas.Y
-        err = np.sqrt(np.mean(np.abs(d) ** 2 / np.abs(meas.Y) ** 2, axis=-1))
-    return np.where(np.isfinite(err), err, np.inf)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -361,15 +325,17 @@ def _peak_plant(meas: Measurement):
 
 
 def _candidates(meas, model, plants, errors, cache):
+    est, convert = _surrogate_model(model)
     out = []
     for path, band, plant in plants:
         try:
-            coils = _coil_candidates(meas, model, plant, cache)
+            coils = _coil_candidates(meas, est, plant, cache)
         except (FitError, FloatingPointError, np.linalg.LinAlgError) as exc:
             errors.append(f"{path}: {exc}")
             continue
         for method, coil in coils:
-            theta = _validated(model, _to_theta(model, plant, coil))
+            with np.errstate(all="ignore"):
+                theta = validated(model, convert(_to_theta(est, plant, coil)))
             if theta is None:
                 errors.append(f"{path} + {method}: not finite or not positive")
             else:
@@ -410,7 +376,8 @@ def find_initial_estimate(meas: Measurement, model: Model, *, band: tuple[float,
     Parameters
     ----------
     meas : the measurement (angular frequency [rad/s], admittance [S]).
-    model : one of the registry models (I, II, III, UD, NL, UL).
+    model : any model; an augmented one gets its base estimate plus each augmentation's own best
+        start (:func:`~bayes_emt.estimation.augment.augmentation_starts`).
     band : (omega_min, omega_max) [rad/s] for the plant linearisation; default: bands of
         0.2–6, 0.4–2.5 and 0.6–1.6 times the resonance, clipped to the data.
     seed : seeds the global stage (only used when the linearised estimate is poor).
@@ -419,6 +386,22 @@ def find_initial_estimate(meas: Measurement, model: Model, *, band: tuple[float,
     ------
     FitError : no physical estimate at all.
     """
+    model = model.bind(meas.omega)
+    ie = _base_estimate(meas, model.base_model(), band, seed)
+    if not model.augmentations:
+        return ie
+    current, theta, path = model.base_model(), ie.theta, ie.path
+    for term in model.augmentations:
+        current, starts = augmentation_starts(meas, current, theta, term)
+        theta = starts[0]
+        path += f" + {term.id} start"
+    theta = model.vector(current.as_dict(theta))
+    rms = float(rms_rel_residual(model, meas, theta[None, :])[0])
+    return replace(ie, theta=theta, path=path, rms_rel_residual=rms, alternatives=())
+
+
+def _base_estimate(meas: Measurement, model: Model, band, seed) -> InitialEstimate:
+    """:func:`find_initial_estimate` of a model without augmentations."""
     bands = [tuple(map(float, band))] if band is not None else resonance_bands(meas)
     full = (float(meas.omega[0]), float(meas.omega[-1]))
     plants, errors = [], []
@@ -432,12 +415,12 @@ def find_initial_estimate(meas: Measurement, model: Model, *, band: tuple[float,
     plants.append(("resonance peak", full, _peak_plant(meas)))
     cache: dict = {}
     cands = _candidates(meas, model, plants, errors, cache)
-    errs = _rms_rel(model, meas, np.array([c[2] for c in cands])) if cands else np.zeros(0)
+    errs = rms_rel_residual(model, meas, np.array([c[2] for c in cands])) if cands else np.zeros(0)
     n_linear = len(cands)
     if not cands or np.min(errs) > POOR_RMS or not _consistent(meas, model, cands[int(np.argmin(errs))][2]):
         order = np.argsort(errs, kind="stable")[:_N_STARTS]
         cands += _global_stage(meas, model, [cands[i] for i in order], np.random.default_rng(seed))
-        errs = _rms_rel(model, meas, np.array([c[2] for c in cands])) if cands else np.zeros(0)
+        errs = rms_rel_residual(model, meas, np.array([c[2] for c in cands])) if cands else np.zeros(0)
     if not cands or not np.isfinite(np.min(errs)):
         raise FitError(f"{meas.source}: no initial estimate for model {model.label} "
                        f"({'; '.join(errors) or 'no finite candidate'})")

@@ -8,7 +8,7 @@ and 7 (the coil current plus five rings), hence n = 5.
 
 Realisation
 -----------
-The modal (Foster) form of the coil (:func:`~bayes_emt.models.rational.foster_form`),
+The modal (Foster) form of the coil (:func:`~bayes_emt.models.rational.foster_form`; exact forms only),
 
     Ze(s) = R0 + G s + Σ_k L_k s / (1 + τ_k s),      G = N² Pg,
 
@@ -57,7 +57,7 @@ from scipy import linalg
 from ..errors import IdentifiabilityWarning
 from ..measurement import Measurement
 from ..models import DEFAULT_N_TURNS, Model, build_model
-from ..models.rational import foster_form
+from ..models.rational import foster_form as _foster
 from .results import FitResult
 
 __all__ = ["hankel_singular_values", "gramian_hsv", "blocked_state_space", "fold_out_of_band",
@@ -73,6 +73,16 @@ RESOLUTION = 5.0
 #: changes ``Yb`` by at most ``2σ`` (balanced truncation), here < 1e-6 of the smallest in-band |Yb| of
 #: a typical coil, far below any instrument's resolution
 HSV_FLOOR = 1e-8
+
+
+def foster_parts(model: Model, theta):
+    """``(R0, G, L, tau)`` of the model's exact Foster form; ``ValueError`` when it has none (the
+    Bessel models' infinite form, or a term without a finite RL form)."""
+    f = _foster(model, theta)
+    if f is None or not f.exact:
+        raise ValueError(f"model {model.label} has no exact Foster form; Hankel singular values need "
+                         "a rational coil (I, II, NL, UL, or these with lead or LR-2 terms)")
+    return f.R0, f.G, f.L, f.tau
 
 
 def fold_out_of_band(R0, G, Lk, tau, band, decades: float = 1.0):
@@ -101,7 +111,7 @@ def blocked_state_space(model: Model, theta, band=None):
     [H^-½]. ``n + 1`` states for NL(n)/UL(n), one for model I; fewer when ``band`` (rad/s) is
     given and out-of-band sections are folded (:func:`fold_out_of_band`).
     """
-    R0, G, Lk, tau = foster_form(model, theta)
+    R0, G, Lk, tau = foster_parts(model, theta)
     if band is not None:
         R0, G, Lk, tau, _ = fold_out_of_band(R0, G, Lk, tau, band)
     if not G > 0:
@@ -168,7 +178,7 @@ def hankel_singular_values(model: Model, theta, band=None) -> np.ndarray:
     (n_states,) array; ``sum = 1/(2 R0)`` with ``R0`` including folded slow sections.
     """
     A, B, _ = blocked_state_space(model, theta, band)
-    n_states = foster_form(model, theta)[2].size + 1
+    n_states = foster_parts(model, theta)[2].size + 1
     hsv = _symmetric_hsv(A, B)
     return np.pad(hsv, (0, n_states - hsv.size))
 
@@ -290,7 +300,7 @@ def select_rings(meas: Measurement, max_rings: int = 7, *, n_turns: float = DEFA
         raise ValueError(f"max_rings must be an integer >= 2, got {max_rings!r}")
     fit = fit_admittance(meas, build_model("NL", rings=int(max_rings), n_turns=n_turns))
     band = (float(meas.omega[0]), float(meas.omega[-1]))
-    R0, G, Lk, tau = foster_form(fit.model, fit.theta)
+    R0, G, Lk, tau = foster_parts(fit.model, fit.theta)
     n_folded = fold_out_of_band(R0, G, Lk, tau, band)[4]
     hsv = hankel_singular_values(fit.model, fit.theta, band=band)
     floor = 0.5 * resolution * noise_level(meas, fit)

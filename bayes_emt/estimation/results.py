@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..io.paramfile import param_record
 from ..models import Model
 
 __all__ = ["FitResult"]
@@ -29,6 +30,9 @@ class FitResult:
     message : the optimiser's message (or why the fallback was taken).
     initial : (k,) the automatic initial estimate the fit started from.
     info : extra, JSON-serialisable details (steps, timings, method).
+    warnings : what makes the estimate untrustworthy, as ``{"code", "message"}`` records
+        (:mod:`bayes_emt.estimation.adequacy`: ``model_inadequate``, ``parameter_at_bound``,
+        ``not_identifiable``, ``resonance_outside_data``); empty when nothing was found.
     """
 
     model: Model
@@ -41,6 +45,12 @@ class FitResult:
     message: str = ""
     initial: np.ndarray | None = None
     info: dict = field(default_factory=dict)
+    warnings: tuple[dict, ...] = ()
+
+    @property
+    def warning_codes(self) -> tuple[str, ...]:
+        """The codes of :attr:`warnings`, in order."""
+        return tuple(w["code"] for w in self.warnings)
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -65,10 +75,7 @@ class FitResult:
     def to_json_dict(self) -> dict:
         """The ``bayes-emt fit --json`` record (SPEC §6 names, SI units)."""
         return {
-            "model": self.model.name,
-            "rings": self.model.rings,
-            "n_turns": self.model.n_turns,
-            "parameters": self.parameters,
+            **param_record(self.model, self.theta),
             "stderr": {k: (None if not np.isfinite(v) else v) for k, v in self.stderr.items()},
             "units": dict(zip(self.model.names, self.model.params.units, strict=True)),
             "rms_rel_residual": float(self.rms_rel_residual),
@@ -76,4 +83,5 @@ class FitResult:
             "n_points": int(self.n_points),
             "success": bool(self.success),
             "message": self.message,
+            "warnings": [{"code": str(w["code"]), "message": str(w["message"])} for w in self.warnings],
         }

@@ -14,27 +14,82 @@ Datasets are chunked one block of steps at a time and compressed (gzip, level 4)
 automatic chunks padded the chain by 1.26×, and emcee's ``HDFBackend`` rewrote its random-state
 attributes at every step, leaving dead space in the file (the demo's NL(5) checkpoint was 143 MB).
 No random state is stored: the driver derives every block's from the seed.
+
+The file is opened without HDF5 file locking (:func:`h5_open`): a reader that held it open with
+locking (``h5py.File(path, "r")`` in some h5py builds, HDFView, ``h5ls``) made the writer's next
+open fail with ``BlockingIOError`` and killed the run. An open that still finds the file busy is
+retried for up to 5 s. The run is the file's only writer; a reader may see a block half written
+(``iteration`` is written after the data, so never the reverse). Read a checkpoint during a run
+with :func:`checkpoint_steps` (read-only, no locking).
+
+:func:`check_checkpoint` says, before any work, whether a checkpoint can be used as asked; one
+that holds no step (a run stopped before its first block: a bad option, an interrupt) is replaced
+without ``overwrite``, and :func:`~bayes_emt.inference.sampling.run_ensemble` removes a
+checkpoint it created when it fails before storing a step.
 """
 
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 
 import emcee
 import h5py
 import numpy as np
 
-__all__ = ["ChainStore", "GROUP", "read_identity"]
+__all__ = ["ChainStore", "GROUP", "read_identity", "h5_open", "checkpoint_steps", "check_checkpoint"]
 
-GROUP = "mcmc"
+GROUP = "mcmc"  #: the HDF5 group of the chain (emcee's ``HDFBackend`` layout)
+_OPEN_TRIES = 100  # a busy checkpoint is retried for up to 100 x 0.05 s
 _COMPRESSION = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
+
+
+def h5_open(path, mode: str) -> h5py.File:
+    """``h5py.File(path, mode)`` without file locking, retried for ~5 s while the file is busy."""
+    for attempt in range(_OPEN_TRIES):
+        try:
+            return h5py.File(path, mode, locking=False)
+        except BlockingIOError:
+            if attempt == _OPEN_TRIES - 1:
+                raise
+            time.sleep(0.05)
+    raise AssertionError("unreachable")
+
+
+def checkpoint_steps(path: str | Path) -> int | None:
+    """Steps stored in a sampler checkpoint (read-only, no file locking: safe while a run writes
+    it), or ``None`` when ``path`` is not a bayes_emt checkpoint."""
+    try:
+        with h5_open(path, "r") as f:
+            g = f[GROUP]
+            if "bayes_emt" not in g.attrs:
+                return None
+            return int(g.attrs["iteration"])
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def check_checkpoint(path: str | Path | None, *, resume: bool, overwrite: bool) -> None:
+    """Refuse, before any work, a checkpoint that cannot be used as asked: ``resume`` without the
+    file, or a file holding steps (or not a checkpoint at all) without ``resume`` or ``overwrite``.
+    A checkpoint holding no step passes (it is replaced)."""
+    if path is None:
+        return
+    path = Path(path)
+    if resume:
+        if not path.exists():
+            raise FileNotFoundError(f"{path}: no checkpoint to resume")
+        return
+    if path.exists() and not overwrite and checkpoint_steps(path) != 0:
+        raise FileExistsError(f"{path}: a checkpoint exists; continue it with --resume, or start "
+                              "afresh with --overwrite (or another --checkpoint)")
 
 
 def read_identity(path: Path) -> dict:
     """The ``bayes_emt`` identity stored in a checkpoint (``ValueError`` if it is not one)."""
     try:
-        with h5py.File(path, "r") as f:
+        with h5_open(path, "r") as f:
             return json.loads(f[GROUP].attrs["bayes_emt"])
     except (OSError, KeyError, ValueError) as exc:
         raise ValueError(f"{path}: cannot resume: not a bayes_emt sampler checkpoint ({exc})") from None
@@ -55,7 +110,7 @@ class ChainStore(emcee.backends.Backend):
         self.reset(nwalkers, ndim)
         if self.path is None:
             return
-        with h5py.File(self.path, "w") as f:
+        with h5_open(self.path, "w") as f:
             g = f.create_group(GROUP)
             g.attrs.update({"version": emcee.__version__, "nwalkers": int(nwalkers), "ndim": int(ndim),
                             "has_blobs": False, "iteration": 0, "bayes_emt": json.dumps(identity)})
@@ -68,7 +123,7 @@ class ChainStore(emcee.backends.Backend):
     def load(self) -> None:
         """Read the stored steps up to the last whole block into memory (a partly written block
         is recomputed; the next flush overwrites it)."""
-        with h5py.File(self.path, "r") as f:
+        with h5_open(self.path, "r") as f:
             g = f[GROUP]
             n = (int(g.attrs["iteration"]) // self.block) * self.block
             self.reset(int(g.attrs["nwalkers"]), int(g.attrs["ndim"]))
@@ -85,7 +140,7 @@ class ChainStore(emcee.backends.Backend):
         if self.path is None or n == self._flushed:
             return
         a = self._flushed
-        with h5py.File(self.path, "a") as f:
+        with h5_open(self.path, "a") as f:
             g = f[GROUP]
             if self.blobs is not None and "blobs" not in g:
                 g.create_dataset("blobs", (0, self.nwalkers), maxshape=(None, self.nwalkers),

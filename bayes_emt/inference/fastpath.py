@@ -1,12 +1,15 @@
 """The likelihood's fast path: a model's admittance on the measured ``s = jω`` in real arithmetic.
 
-A :class:`JwPlan` reads a model's terms and, when every one is a series term the kernels of
-:mod:`bayes_emt.models.terms` can evaluate on the imaginary axis, evaluates a batch of parameter
-sets ``(W, k)`` at the measurement's fixed frequencies as
+A :class:`JwPlan` evaluates a batch of parameter sets ``(W, k)`` of a model at the measurement's
+fixed frequencies from the model's :class:`~bayes_emt.models.model.JwForm`
+(:meth:`Model.jw_form <bayes_emt.models.model.Model.jw_form>`), which the terms themselves provide
+(:meth:`Term.jw_rational <bayes_emt.models.term.Term.jw_rational>`, :meth:`Term.jw_bessel
+<bayes_emt.models.term.Term.jw_bessel>`); nothing here knows a term or a model by name:
 
 * the rational terms (resistance, inductances, lossy inductance, motional branch, NL ring ladder,
-  UL rings) summed into one polynomial pair ``Zr = N(s)/D(s)``, whose real and imaginary parts at
-  ``jω`` are small real matrix products with a precomputed basis
+  UL rings, and the augmentations with a rational form: another mode, LR-2, leads, winding
+  capacitance) as one polynomial pair ``Zr = N(s)/D(s)``, whose real and imaginary parts at ``jω``
+  are small real matrix products with a precomputed basis
   (:func:`~bayes_emt.models.terms.jw_power_basis`);
 * plus the Bessel terms (models III, UD) from the 45° table (:func:`~bayes_emt.models.terms.bessel_eddy_jw`).
 
@@ -18,9 +21,10 @@ and ``c_k`` are folded into the basis once and ``E`` costs one matrix product (p
 No complex division, no complex temporaries, no per-term arrays.
 
 A plan is only used after it reproduced :meth:`Model.admittance` at three parameter sets to
-1e-9 relative (:meth:`JwPlan.build`); a model with any other term (parallel terms, terms the
-discrepancy step adds), more than :data:`MAX_DEGREE` polynomial degrees, or frequencies whose
-powers would overflow gets no plan, and the likelihood evaluates it through the model instead.
+1e-9 relative (:meth:`JwPlan.build`); a model with a term that offers no fast kernel (a creep,
+port, drift, semi-inductance or instrument term; a parallel term beside a Bessel kernel), more
+than :data:`MAX_DEGREE` polynomial degrees, or frequencies whose powers would overflow gets no
+plan, and the likelihood evaluates it through the model instead.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ import threading
 
 import numpy as np
 
-from ..models import Model
+from ..models import JwForm, Model
 from ..models import terms as T
 
 __all__ = ["JwPlan", "MAX_DEGREE"]
@@ -58,29 +62,6 @@ class _Workspace(threading.local):
         return a
 
 
-_RATIONAL_TERMS = ("motional", "resistance", "inductance", "gap_inductance", "lossy_inductance",
-                   "ring_ladder", "uniform_rings")
-
-
-def _term_polynomials(name: str, v: np.ndarray, n_turns: float, rings: int | None):
-    """``(num, den)`` of one rational catalogue term for its parameter columns ``v (W, k)``."""
-    if name == "motional":
-        return T.motional_polynomials(v[:, 0], v[:, 1], v[:, 2])
-    if name == "resistance":
-        return T.resistance_polynomials(v[:, 0])
-    if name in ("inductance", "gap_inductance"):
-        return T.inductance_polynomials(v[:, 0])
-    if name == "lossy_inductance":
-        return T.lossy_inductance_polynomials(v[:, 0], v[:, 1])
-    if name == "ring_ladder":
-        n = (v.shape[1] - 1) // 2
-        return T.ladder_polynomials(v[:, 0], v[:, 1 : n + 1], v[:, n + 1 :], n_turns)
-    if name == "uniform_rings":
-        Pg, P, R = T.uniform_rings(v[:, 0], v[:, 1], v[:, 2], rings, n_turns)
-        return T.ladder_polynomials(Pg, P, R, n_turns)
-    raise KeyError(name)
-
-
 class JwPlan:
     """Evaluation of one model at fixed angular frequencies ``omega`` [rad/s] (module docstring).
 
@@ -92,24 +73,12 @@ class JwPlan:
         self.omega = np.asarray(omega, float)
         if self.omega.ndim != 1 or not np.all(self.omega > 0):
             raise NotImplementedError("the fast path needs positive angular frequencies")
-        self.n_turns, self.rings, self.ndim = float(model.n_turns), model.rings, model.ndim
-        self._rational, self._bessel = [], []
-        start = 0
-        for term in model.terms:
-            sl = slice(start, start + len(term.params))
-            start = sl.stop
-            if term.kind != "series":
-                raise NotImplementedError(f"term {term.name!r} is not a series impedance")
-            if term.name == "bessel_eddy" and len(term.params) == 2:
-                self._bessel.append(sl)
-            elif term.name in _RATIONAL_TERMS and (term.name != "uniform_rings" or model.rings is not None):
-                self._rational.append((sl, term.name))
-            else:
-                raise NotImplementedError(f"no fast path for term {term.name!r}")
-        if start != model.ndim or not self._rational:
-            raise NotImplementedError("the terms do not cover the model's parameters")
-        probe = self._polynomials(np.ones((1, model.ndim)))
-        self.deg_num, self.deg_den = probe[0].shape[-1] - 1, probe[1].shape[-1] - 1
+        self.model, self.ndim = model, model.ndim
+        probe = model.jw_form(np.ones((1, model.ndim)))
+        if probe is None:
+            raise NotImplementedError(f"model {model.label}: some term has no fast kernel on s = jω")
+        self.n_bessel = len(probe.bessel)
+        self.deg_num, self.deg_den = probe.num.shape[-1] - 1, probe.den.shape[-1] - 1
         if max(self.deg_num, self.deg_den) > MAX_DEGREE:
             raise NotImplementedError("polynomial degree too high for the monomial basis")
         deg = max(self.deg_num, self.deg_den)
@@ -152,18 +121,17 @@ class JwPlan:
         return plan
 
     # ---- pieces ------------------------------------------------------------------------------------
-    def _polynomials(self, theta):
-        """Sum of the rational terms as ``(num, den)``, each ``(W, d + 1)``."""
-        acc = None
-        for sl, name in self._rational:
-            pair = _term_polynomials(name, theta[:, sl], self.n_turns, self.rings)
-            acc = pair if acc is None else T.add_rational(acc, pair)
-        return acc
+    def _form(self, theta) -> JwForm:
+        """The model's :class:`JwForm` for ``theta (W, k)`` (same shapes as the probe's)."""
+        form = self.model.jw_form(theta)
+        if form is None or len(form.bessel) != self.n_bessel:  # pragma: no cover - fixed by the terms
+            raise RuntimeError(f"model {self.model.label}: its fast form changed between calls")
+        return form
 
-    def _bessel_parts(self, theta):
+    def _bessel_parts(self, form: JwForm):
         re = im = None
-        for sl in self._bessel:
-            br, bi = T.bessel_eddy_jw(self.omega, theta[:, sl.start, None], theta[:, sl.start + 1, None])
+        for alpha, beta in form.bessel:
+            br, bi = T.bessel_eddy_jw(self.omega, alpha[:, None], beta[:, None])
             re, im = (br, bi) if re is None else (re + br, im + bi)
         return re, im
 
@@ -214,15 +182,16 @@ class JwPlan:
         theta = np.asarray(theta, float)
         lead = theta.shape[:-1]
         flat = theta.reshape(-1, theta.shape[-1])
-        num, den = self._polynomials(flat)
+        form = self._form(flat)
+        num, den = form.num, form.den
         F = self.omega.size
         with np.errstate(all="ignore"):
             N = self._eval(num)
             D = self._eval(den)
             Zn = N[:, :F] + 1j * N[:, F:]
             Zd = D[:, :F] + 1j * D[:, F:]
-            if self._bessel:
-                br, bi = self._bessel_parts(flat)
+            if form.bessel:
+                br, bi = self._bessel_parts(form)
                 Zn = Zn + (br + 1j * bi) * Zd
             Y = Zd / Zn
         return Y.reshape(lead + (F,))
@@ -236,16 +205,17 @@ class JwPlan:
         thread (scratch arrays are reused); threads each get their own.
         """
         theta = np.asarray(theta, float)
-        num, den = self._polynomials(theta)
+        form = self._form(theta)
+        num, den = form.num, form.den
         W = theta.shape[0]
         M = self._folded_basis(Y, scale)
         coeffs = np.ascontiguousarray(np.concatenate([den, num], axis=-1))
         e = np.empty((W, self.omega.size)) if out is None else out
         bessel = []
-        for sl in self._bessel:  # per term: table position offset and (β/√α) D's coefficients
+        for alpha, beta in form.bessel:  # per term: table position offset and (β/√α) D's coefficients
             with np.errstate(all="ignore"):
-                half = 0.5 * np.log(theta[:, sl.start])
-                gden = (theta[:, sl.start + 1] * np.exp(-half))[:, None] * den
+                half = 0.5 * np.log(alpha)
+                gden = (beta * np.exp(-half))[:, None] * den
                 bessel.append((T.table_position(half, 0.0), gden))
         yr, yi = Y.real * scale, Y.imag * scale
         with np.errstate(all="ignore"):

@@ -175,6 +175,8 @@ class Likelihood(SamplingSpaceDensity):
     noise_params: ParamSet | None = None
 
     def __post_init__(self):
+        # a term that depends on the sweep (thermal drift) is configured by the data it explains
+        object.__setattr__(self, "model", self.model.bind(self.meas.omega))
         if self.kind not in ("gaussian", "student"):
             raise ValueError(f"unknown likelihood {self.kind!r}; choose gaussian or student")
         if self.kind == "student" and self.nu is not None and not (self.nu > 0 and math.isfinite(self.nu)):
@@ -313,7 +315,7 @@ class Likelihood(SamplingSpaceDensity):
 
     def identity(self) -> dict:
         """What a checkpoint must match to be resumed by this likelihood (data by SHA-256)."""
-        return {"model": self.model.label, "terms": [t.name for t in self.model.terms],
+        return {"model": self.model.label, "terms": [t.to_dict() for t in self.model.terms],
                 "n_turns": self.model.n_turns, "names": list(self.params.names), "likelihood": self.kind,
                 "nu": self.nu, "n_points": self.meas.n_points,
                 "priors_sha256": _sha256(json.dumps(self.params.to_dict(), sort_keys=True).encode()),

@@ -49,9 +49,13 @@ class SnookerMove(RedBlueMove):
 
     For a walker ``x``, three points ``a, z1, z2`` of the complementary walkers: with
     ``e = (x − a)/|x − a|``, propose ``x' = x + γ e·(z1 − z2) e``, ``γ ~ U(1.2, 2.2)``, and accept
-    with ``min(1, π(x')/π(x) · (|x' − a|/|x − a|)^(d − 1))``. (emcee 3.1.6's ``DESnookerMove``
-    projects with ``delta/sqrt(|delta|)`` and halves the exponent, so its target is not the
-    posterior; tests/test_sampling.py.)
+    with ``min(1, π(x')/π(x) · (|x' − a|/|x − a|)^(d − 1))``.
+
+    emcee 3.1.6's ``DESnookerMove`` (the latest release) projects on ``delta/sqrt(|delta|)`` and
+    halves the ``(d − 1)`` exponent, so its target is not the posterior. Upstream fixed both in
+    emcee PR #531 (commit 946e664, "Update de_snooker.py", merged 27 January 2025:
+    ``u = delta / norm`` and ``(ndim - 1.0) * metropolis``), not in a release yet. This class does
+    not depend on which emcee is installed; tests/test_sampling.py checks emcee's own move either way.
     """
 
     def __init__(self, gamma_range: tuple[float, float] = (1.2, 2.2), **kwargs):

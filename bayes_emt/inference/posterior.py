@@ -39,7 +39,7 @@ from ..params import ParamSet
 from .likelihood import Likelihood
 
 __all__ = ["Posterior", "DERIVED", "read_posterior", "posterior_from_datatree", "physical_from_pair",
-           "stored_param_set", "stored_record"]
+           "stored_model", "stored_param_set", "stored_record"]
 
 _LOG_LIK_CHUNK = 64  # draws per vectorised pointwise-likelihood call (memory: chunk × F × terms)
 
@@ -193,7 +193,7 @@ class Posterior:
 
     def to_json_dict(self) -> dict:
         """The ``bayes-emt sample --json`` record."""
-        return {"model": self.model.name, "rings": self.model.rings, "converged": bool(self.converged),
+        return {"model": self.model.spec, "rings": self.model.rings, "converged": bool(self.converged),
                 "message": self.message, "n_steps": self.n_steps, "tau_max": float(np.max(self.tau)),
                 "burn": self.burn, "thin": self.thin, "n_walkers": self.n_walkers,
                 "n_draws_kept": int(self.draws.shape[0] * self.draws.shape[1]),
@@ -227,9 +227,11 @@ class Posterior:
 
     def _model_attrs(self) -> dict:
         lik, model = self.likelihood, self.model
-        return {"model": model.name, "model_label": model.label,
-                "rings": -1 if model.rings is None else int(model.rings), "n_turns": float(model.n_turns),
-                "terms": json.dumps([t.name for t in model.terms]), "likelihood": lik.kind,
+        return {"model": model.spec, "model_label": model.label,
+                "rings": -1 if model.rings is None else int(model.rings),
+                "n_turns": -1.0 if model.n_turns is None else float(model.n_turns),
+                "terms": json.dumps([t.to_dict() for t in model.terms]),
+                "model_record": json.dumps(model.to_dict()), "likelihood": lik.kind,
                 "nu": "sampled" if lik.sample_nu else (-1.0 if lik.nu is None else float(lik.nu)),
                 "noise_model": lik.describe()}
 
@@ -296,20 +298,14 @@ def posterior_from_datatree(dt, *, where: str = "posterior") -> Posterior:
     cannot rebuild (e.g. augmented by the discrepancy step) raises ``ValueError``.
     """
     from ..measurement import Measurement
-    from ..models import build_model
 
     a = dt.attrs
     if a.get("kind") != "single":
         raise ValueError(f"{where}: a {a.get('kind')!r} posterior, not a single-recording one; read it "
                          "with bayes_emt.read_posterior, which knows every kind")
-    rings = None if int(a["rings"]) < 0 else int(a["rings"])
-    model = build_model(str(a["model"]), rings=rings, n_turns=float(a["n_turns"]))
-    if [t.name for t in model.terms] != json.loads(a["terms"]):
-        raise ValueError(f"{where}: model {a['model_label']} has terms {a['terms']}, which the registry "
-                         "does not rebuild")
     specs = stored_param_set(a)
+    model = stored_model(a, specs, where=where)
     k = model.ndim
-    model = model.with_priors({s.name: s.prior for s in specs[:k]})
     omega = dt["constant_data"]["omega_rad_s"].values
     Y = dt["observed_data"]["Y_real"].values + 1j * dt["observed_data"]["Y_imag"].values
     w = dt["constant_data"]["weights"].values if "weights" in dt["constant_data"] else None
@@ -318,6 +314,20 @@ def posterior_from_datatree(dt, *, where: str = "posterior") -> Posterior:
     lik = Likelihood(model, meas, str(a["likelihood"]), None if nu is None or nu < 0 else nu,
                      ParamSet(specs[k:]))
     return Posterior(lik, **stored_record(dt, specs.names))
+
+
+def stored_model(attrs, specs: ParamSet, *, where: str = "posterior") -> Model:
+    """The model of a saved run, rebuilt from its stored terms (:meth:`Model.to_dict`) with the stored
+    priors of its parameters (the first ``model.ndim`` of ``specs``)."""
+    from ..models import model_from_dict
+
+    if "model_record" in attrs:
+        model = model_from_dict(json.loads(attrs["model_record"]), where=where)
+    else:  # written before models were stored by their terms
+        rings = None if int(attrs["rings"]) < 0 else int(attrs["rings"])
+        model = model_from_dict({"spec": str(attrs["model"]), "rings": rings,
+                                 "n_turns": float(attrs["n_turns"])}, where=where)
+    return model.with_priors({s.name: s.prior for s in specs[: model.ndim]})
 
 
 def stored_param_set(attrs) -> ParamSet:

@@ -59,6 +59,12 @@ rule. So a run killed at any moment (SIGKILL included) and resumed ends with exa
 an uninterrupted run: same number of steps, same values. A resume checks that the checkpoint
 belongs to the same model, priors, likelihood, data (SHA-256), seed, walker count and moves,
 and refuses otherwise.
+
+Checkpoints are opened without HDF5 file locking, so a reader never kills the run; a run that
+stores no step removes the checkpoint it created, and a checkpoint holding no step never blocks
+the next run (:mod:`bayes_emt.inference.checkpoint`). A parameter whose walkers never moved has no
+autocorrelation time (emcee's estimate is 0/0): it counts as correlated over the whole chain and
+the run as not converged, with a message saying so.
 """
 
 from __future__ import annotations
@@ -79,16 +85,16 @@ from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import Model
 from ..params import ParamSet
-from .checkpoint import ChainStore, read_identity
+from .checkpoint import ChainStore, check_checkpoint, checkpoint_steps, read_identity
 from .likelihood import Likelihood, LikelihoodKind
 from .moves import MOVES_DESCRIPTION, SnookerMove, production_moves, proposal_mismatch, warmup_moves
 from .posterior import Posterior
 from .start import initial_walkers, noise_start, start_ball
 
 __all__ = ["SamplerSettings", "SnookerMove", "default_moves", "initial_walkers", "stopping_rule",
-           "integrated_time",
+           "integrated_time", "integrated_time_stuck",
            "sample_posterior", "sample_likelihood",
-           "run_ensemble", "start_ball", "noise_start"]
+           "run_ensemble", "start_ball", "noise_start", "checkpoint_steps", "check_checkpoint"]
 
 
 @dataclass(frozen=True)
@@ -135,11 +141,17 @@ def default_moves():
 
 
 def integrated_time(chain: np.ndarray, c: float = 5.0) -> np.ndarray:
+    """Integrated autocorrelation time per parameter (:func:`integrated_time_stuck`'s first part)."""
+    return integrated_time_stuck(chain, c)[0]
+
+
+def integrated_time_stuck(chain: np.ndarray, c: float = 5.0) -> tuple[np.ndarray, bool]:
     """Integrated autocorrelation time per parameter of ``chain (steps, walkers, ndim)`` [steps]:
     emcee's estimator (``emcee.autocorr.integrated_time``: each walker's normalised
     autocorrelation function by FFT, averaged over walkers, Sokal's window with ``c = 5``), with
     the walkers' FFTs done together, one parameter at a time. A parameter some walker never moved
-    in counts as correlated over the whole chain (emcee gives NaN there)."""
+    in counts as correlated over the whole chain (emcee gives NaN there), so every rule reads 'not
+    converged' and no NaN reaches an integer (burn-in, thinning); the flag says whether one did."""
     chain = np.asarray(chain, float)
     n, _, ndim = chain.shape
     nfft = 2 * (1 << max(int(n - 1).bit_length(), 0))
@@ -154,7 +166,8 @@ def integrated_time(chain: np.ndarray, c: float = 5.0) -> np.ndarray:
         taus = 2.0 * np.cumsum(f) - 1.0
         inside = lags < c * taus
         tau[d] = taus[np.argmin(inside)] if np.any(inside) else taus[-1]
-    return np.where(np.isfinite(tau), tau, float(n))
+    ok = np.isfinite(tau)
+    return np.where(ok, tau, float(n)), not bool(np.all(ok))
 
 
 def stopping_rule(chain: np.ndarray, n: int, settings: SamplerSettings, start: int = 0,
@@ -171,26 +184,26 @@ def stopping_rule(chain: np.ndarray, n: int, settings: SamplerSettings, start: i
     def tau_of(m_):
         key = (int(start), int(m_))
         if key not in cache:
-            cache[key] = integrated_time(chain[start : start + m_])
+            cache[key] = integrated_time_stuck(chain[start : start + m_])
         return cache[key]
 
     part = chain[start:n]
     m = part.shape[0]
     nwalkers = chain.shape[1]
-    tau = tau_of(m)
+    tau, stuck = tau_of(m)
     prev = m - settings.check_every
     change = math.inf
     if prev >= settings.check_every:
-        tau_prev = tau_of(prev)
+        tau_prev, _ = tau_of(prev)
         change = float(np.max(np.abs(tau - tau_prev) / tau))
-    burn = int(math.ceil(2 * np.max(tau)))
+    burn = min(int(math.ceil(2 * np.max(tau))), m)
     ess = nwalkers * max(m - burn, 0) / tau
     out = {"step": int(n), "start": int(start), "tau_max": float(np.max(tau)),
            "n_over_tau": float(m / np.max(tau)), "tau_change": change, "ess_min": float(np.min(ess)),
            "long_enough": bool(m >= settings.min_tau_multiple * np.max(tau)),
            "tau_stable": bool(change < settings.tau_rtol),
-           "ess_reached": bool(np.min(ess) >= settings.ess_target)}
-    out["converged"] = out["long_enough"] and out["tau_stable"] and out["ess_reached"]
+           "ess_reached": bool(np.min(ess) >= settings.ess_target), "stuck": stuck}
+    out["converged"] = out["long_enough"] and out["tau_stable"] and out["ess_reached"] and not stuck
     return out
 
 
@@ -200,7 +213,10 @@ def _verdict_message(v: dict, max_steps: int, settings: SamplerSettings) -> str:
         return (f"converged at step {v['step']}: {what} {v['n_over_tau']:.0f} tau_max, "
                 f"min ESS {v['ess_min']:.0f}, tau changed {100 * v['tau_change']:.1f} % since the last check")
     why = []
-    if not v["long_enough"]:
+    if v.get("stuck"):
+        why.append("some parameters never moved (no accepted proposal: tau undefined); the posterior is "
+                   "far narrower than the walkers' start, or zero around it: check the priors")
+    elif not v["long_enough"]:
         why.append(f"{what} = {v['n_over_tau']:.1f} tau_max (need {settings.min_tau_multiple:g})")
     if not v["tau_stable"]:
         ch = "no previous check" if not math.isfinite(v["tau_change"]) else f"{100 * v['tau_change']:.1f} %"
@@ -237,19 +253,19 @@ def _open_store(checkpoint, resume, overwrite, ident, nwalkers, ndim, reseed_eve
         store.create(nwalkers, ndim, ident)
         return store
     path = Path(checkpoint)
+    check_checkpoint(path, resume=resume, overwrite=overwrite)
     store = ChainStore(path, reseed_every)
     if resume:
-        if not path.exists():
-            raise FileNotFoundError(f"{path}: no checkpoint to resume")
         _check_resume(path, ident)
         store.load()
         return store
     if path.exists():
-        if not overwrite:
-            raise FileExistsError(f"{path}: a checkpoint exists; continue it with --resume, or start "
-                                  "afresh with --overwrite (or another --checkpoint)")
         path.unlink()
-    store.create(nwalkers, ndim, ident)
+    try:
+        store.create(nwalkers, ndim, ident)
+    except BaseException:
+        path.unlink(missing_ok=True)
+        raise
     return store
 
 
@@ -343,8 +359,6 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
     nwalkers += nwalkers % 2
     ident = _run_identity(target, seed, nwalkers, settings)
     store = _open_store(checkpoint, resume, overwrite, ident, nwalkers, ndim, settings.reseed_every)
-    z0 = start(nwalkers) if store.iteration == 0 else None
-    phases = _Phases(target, nwalkers, store, settings.warmup)
     progress = sys.stderr.isatty() if progress is None else bool(progress)
     from tqdm.auto import tqdm
 
@@ -354,6 +368,8 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
     verdict = None
     tau_cache: dict = {}
     try:
+        z0 = start(nwalkers) if store.iteration == 0 else None
+        phases = _Phases(target, nwalkers, store, settings.warmup)
         while True:
             n = store.iteration
             sampler = phases.at(n)
@@ -374,6 +390,11 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
             sampler.run_mcmc(state, seg, skip_initial_state_check=n > 0)
             store.flush()
             bar.update(seg)
+    except BaseException:
+        # a run that stored no step leaves no checkpoint of its own making behind
+        if checkpoint is not None and not resume and checkpoint_steps(checkpoint) in (0, None):
+            Path(checkpoint).unlink(missing_ok=True)
+        raise
     finally:
         bar.close()
     message = _verdict_message(verdict, max_steps, settings)
@@ -381,8 +402,8 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
         warnings.warn(f"{target.label}: {message}", ConvergenceWarning, stacklevel=3)
     chain = store.get_chain()
     s0 = phases.start(chain.shape[0])
-    tau = tau_cache.get((s0, chain.shape[0] - s0))
-    tau = integrated_time(chain[s0:]) if tau is None else tau
+    cached = tau_cache.get((s0, chain.shape[0] - s0))
+    tau = integrated_time(chain[s0:]) if cached is None else cached[0]
     burn = min(s0 + int(math.ceil(2 * np.max(tau))), chain.shape[0] - 1)
     return {"chain": chain, "log_prob": store.get_log_prob(), "blobs": store.get_blobs(), "tau": tau,
             "burn": burn, "max_draws": settings.max_draws,

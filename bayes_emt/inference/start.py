@@ -100,6 +100,7 @@ def initial_walkers(lik, fit: FitResult, nwalkers: int, rng: np.random.Generator
     with np.errstate(all="ignore"):
         r = lik.model_admittance(fit.theta) - lik.meas.Y
     rms_abs = float(np.sqrt(np.mean(r.real**2 + r.imag**2) / 2))
+    _refuse_noise_priors_excluding(lik, rel[0], rms_abs)
     floor = [rel[0] - math.log(1e3), math.log(max(rms_abs, 1e-300))]
     extra = [math.log(10.0)] if lik.sample_nu else []
     starts = np.array([np.r_[z0, rel, extra], np.r_[z0, floor, extra]])
@@ -126,14 +127,46 @@ def initial_walkers(lik, fit: FitResult, nwalkers: int, rng: np.random.Generator
     return start_ball(lik, mode[:k], cov, list(mode[k:]), noise_spread, nwalkers, rng, uniform=uniform)
 
 
+def _refuse_noise_priors_excluding(lik, z_rel: float, rms_abs: float) -> None:
+    """Raise ``ValueError``, naming both priors, when neither noise scale's prior reaches the level
+    of the fit's residuals: ``sigma_rel`` excludes the relative level ``exp(z_rel)`` and
+    ``sigma_abs`` the absolute level ``rms_abs`` [S] (walkers started far outside the posterior's
+    mass never move, and the chain has no autocorrelation time). One prior reaching it is enough:
+    the mode search starts from both (:func:`initial_walkers`)."""
+    names = lik.noise_params.names
+    if "sigma_rel" not in names or "sigma_abs" not in names:
+        return
+    lo, hi = lik.params.bounds_z()
+    i_rel, i_abs = lik.params.index("sigma_rel"), lik.params.index("sigma_abs")
+    if lo[i_rel] <= z_rel <= hi[i_rel]:
+        return
+    z_abs = math.log(rms_abs) if rms_abs > 0 else -math.inf
+    if lo[i_abs] < z_abs < hi[i_abs]:
+        return
+
+    def show(i):
+        d = dict(lik.params[i].prior.to_dict())
+        return f"{d.pop('dist', '?')}(" + ", ".join(f"{k}={v:g}" for k, v in d.items()) + ")"
+
+    raise ValueError(
+        f"the noise priors exclude the data: the least-squares residuals are "
+        f"{100 * math.exp(z_rel):.3g} % of |Y| per real/imaginary part ({rms_abs:.3g} S rms), but "
+        f"sigma_rel is {show(i_rel)} [1] and sigma_abs {show(i_abs)} [S]: widen one of them (--priors)")
+
+
 def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Generator, *,
                uniform: dict[int, tuple[float, float]] | None = None) -> np.ndarray:
     """``nwalkers`` sampling-space points: the first ``len(z0)`` coordinates from ``N(z0, cov)``,
     the rest (noise) from independent normals (``centre``, ``spread``), except coordinates ``i`` of
     ``uniform`` (``{i: (low, high)}``), drawn uniformly; clipped to the prior support of
-    ``target.params``, each with a finite posterior; the ball shrinks if too many fall outside."""
+    ``target.params``, each with a finite posterior; the ball shrinks if too many fall outside.
+    Correlations are shrunk to at most 0.99 in magnitude: a parameter the data do not separate
+    from another (a lead resistance beside R0) makes the fit's covariance nearly singular, and
+    walkers drawn from it would be linearly dependent (emcee refuses such a start)."""
     k = len(z0)
-    cov = 0.5 * (cov + cov.T) + np.eye(k) * 1e-12 * np.max(np.abs(np.diag(cov)))
+    cov = 0.5 * (cov + cov.T)
+    cov = 0.99 * cov + 0.01 * np.diag(np.diag(cov))
+    cov = cov + np.eye(k) * 1e-12 * np.max(np.abs(np.diag(cov)))
     lo, hi = target.params.bounds_z()
     out = np.empty((nwalkers, target.ndim))
     filled = 0

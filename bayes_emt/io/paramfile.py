@@ -1,4 +1,6 @@
-"""Parameter files: ``{"model": "UD", "rings": null, "n_turns": 480, "parameters": {...}}``.
+"""Parameter files: ``{"model": "UD+winding_capacitance", "rings": null, "n_turns": 480, "terms": [...],
+"parameters": {...}}`` (``terms``, written by ``fit --json``, rebuilds the model exactly; a spec alone
+works too).
 
 The same shape ``bayes-emt fit --json`` writes, so a fit's output feeds ``simulate`` and ``shunt``.
 """
@@ -14,9 +16,9 @@ import numpy as np
 
 from .._atomic import atomic_write_text
 from ..errors import DataFormatError
-from ..models import DEFAULT_N_TURNS, Model, build_model
+from ..models import Model, model_from_dict
 
-__all__ = ["read_param_file", "model_from_record", "write_json"]
+__all__ = ["read_param_file", "model_from_record", "param_record", "write_json"]
 
 
 def model_from_record(rec: Mapping, *, where: str = "parameters") -> tuple[Model, np.ndarray]:
@@ -29,17 +31,27 @@ def model_from_record(rec: Mapping, *, where: str = "parameters") -> tuple[Model
     params = rec["parameters"]
     if not isinstance(params, Mapping):
         raise DataFormatError(f"{where}: 'parameters' must be an object of name: value")
+    rings = rec.get("rings")
+    if rings is None and not rec.get("terms"):
+        # an older record without the ring count: count the ring permeances it holds
+        rings = sum(1 for k in params if k.startswith("P") and k[1:].isdigit()) or None
     try:
-        model = build_model(str(rec["model"]), rings=rec.get("rings"),
-                            n_turns=float(rec.get("n_turns") or DEFAULT_N_TURNS))
+        model = model_from_dict({**rec, "rings": rings, "parameters": rec.get("priors")}, where=where)
     except ValueError as exc:
-        raise DataFormatError(f"{where}: {exc}") from None
-    if model.rings is not None and rec.get("rings") is None:
-        n = sum(1 for k in params if k.startswith("P") and k[1:].isdigit())
-        if n and n != model.rings:
-            model = build_model(model.name, rings=n, n_turns=model.n_turns)
+        if rings is not None and rec.get("rings") is None and "applies to NL and UL only" in str(exc):
+            model = model_from_dict({**rec, "rings": None, "parameters": None}, where=where)
+        else:
+            raise DataFormatError(str(exc) if str(exc).startswith(where) else f"{where}: {exc}") from None
+    values = {}
+    for k, v in params.items():
+        # JSON null, a string or a boolean is no number: name the parameter (float(None) would not)
+        if v is None or isinstance(v, bool) or not isinstance(v, int | float):
+            unit = next((s.unit for s in model.params if s.name == k), None)
+            raise DataFormatError(f"{where}: parameter {k!r} is {json.dumps(v)}; give a number"
+                                  + (f" [{unit}]" if unit else ""))
+        values[k] = float(v)
     try:
-        theta = model.vector({k: float(v) for k, v in params.items()})
+        theta = model.vector(values)
     except (KeyError, TypeError, ValueError) as exc:
         raise DataFormatError(f"{where}: {exc}") from None
     bad = [n for n, v in zip(model.names, theta, strict=True) if not math.isfinite(v)]
@@ -65,6 +77,15 @@ def read_param_file(path: str | Path) -> tuple[Model, np.ndarray]:
     except json.JSONDecodeError as exc:
         raise DataFormatError(f"{path}: line {exc.lineno}: invalid JSON ({exc.msg})") from None
     return model_from_record(rec, where=str(path))
+
+
+def param_record(model: Model, theta) -> dict:
+    """The parameter-file record of ``model`` at ``theta``: ``{"model": spec, "rings", "n_turns",
+    "terms", "priors", "parameters": {name: value}}`` [SI]; :func:`model_from_record` rebuilds the
+    same model (terms, configuration and priors) and vector."""
+    d = model.to_dict()
+    return {"model": d["spec"], "rings": d["rings"], "n_turns": d["n_turns"], "terms": d["terms"],
+            "priors": d["parameters"], "parameters": model.as_dict(theta)}
 
 
 def write_json(path: str | Path, obj) -> None:

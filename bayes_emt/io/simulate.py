@@ -40,11 +40,12 @@ def simulate(model: Model, parameters: Mapping[str, float] | np.ndarray, omega=N
     if noise < 0 or not np.isfinite(noise):
         raise ValueError(f"noise must be a non-negative number, got {noise!r}")
     omega = log_omega_grid() if omega is None else np.asarray(omega, float)
+    model = model.bind(omega)
     Y = model.admittance(omega, theta)
     if noise > 0:
         rng = np.random.default_rng(seed)
         Y = Y * (1.0 + noise * (rng.standard_normal(Y.shape) + 1j * rng.standard_normal(Y.shape)))
-    meta = {"source": source, "simulated": True, "model": model.name, "rings": model.rings,
-            "n_turns": model.n_turns, "truth": model.as_dict(theta), "noise_rel": float(noise),
-            "seed": seed}
+    meta = {"source": source, "simulated": True, "model": model.spec, "rings": model.rings,
+            "n_turns": model.n_turns, "terms": [t.to_dict() for t in model.terms],
+            "truth": model.as_dict(theta), "noise_rel": float(noise), "seed": seed}
     return Measurement(omega, Y, meta=meta)

@@ -1,134 +1,312 @@
-"""The catalogue of named physics terms that models are composed from.
+"""The paper's terms: the motional branch, the coil resistance and the coil models (SPEC §1–2).
 
-A :class:`Term` couples a pure function of :mod:`bayes_emt.models.terms` to its parameter specs.
-Terms are *series* impedances (summed into the terminal impedance) or *parallel* admittances
-(added to ``1/Z``); their ``role`` tells downstream code which part of the plant they describe
-(``motional`` for the mechanical branch, ``electrical`` for the coil and its resistance). The
-discrepancy step draws augmentations from this same catalogue.
+Each coil term carries its own start (:class:`~bayes_emt.models.term.CoilStart`: the columns and
+the one nonlinear parameter the linear coil stage of the initial estimate scans), its Foster form
+and its serialised id; the augmentations of SPEC §7 live in :mod:`bayes_emt.models.augmentations`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import ClassVar
 
 import numpy as np
+from scipy import special
 
-from ..params import ParamSet, default_spec
 from . import terms as T
+from .linearise import lossy_inductance_linear, rational_alpha
+from .term import CoilStart, FosterPart, Term, col, specs
 
-__all__ = ["Term", "TERMS", "make_term"]
+__all__ = ["Motional", "Resistance", "Inductance", "GapInductance", "LossyInductance", "BesselEddy",
+           "RingLadder", "UniformRings", "bessel_sections"]
+
+_EDDY = "eddy currents in the pole and core (excess real part and phase deficit rising with frequency)"
+
+
+def _s(s):
+    return s
 
 
 @dataclass(frozen=True)
-class Term:
-    """A named physics term.
+class Motional(Term):
+    """The primary mechanical branch (eq. 47): ``Z_mot = φ̄² s/(s² + 2ζω0 s + ω0²)``."""
 
-    Attributes
-    ----------
-    name : catalogue name (e.g. ``"bessel_eddy"``).
-    kind : ``"series"`` (an impedance, ohm) or ``"parallel"`` (an admittance, S).
-    role : ``"motional"`` or ``"electrical"``.
-    params : the term's parameter specs, in the order ``evaluate`` expects its columns.
-    func : ``func(s, values) -> complex``; ``s`` shape ``(F,)``, ``values`` shape ``(P, k)``,
-        result ``(P, F)``.
-    description : one line of physics, for reports.
-    """
+    id = "motional"
+    stage = "motional"
+    physics = "mechanics"
+    description = "moving mass on a spring with viscous damping, coupled by phi (eq. 47)"
+    signature = "the impedance peak and its phase swing at the mechanical resonance"
 
-    name: str
-    kind: Literal["series", "parallel"]
-    role: Literal["motional", "electrical"]
-    params: ParamSet
-    func: Callable[[np.ndarray, np.ndarray], np.ndarray]
-    description: str = ""
+    @classmethod
+    def default_params(cls):
+        return specs("zeta", "omega0", "phi")
 
-    def evaluate(self, s, values):
-        return self.func(s, values)
+    def evaluate(self, s, v, other):
+        """The motional *impedance* [Ω] (the model turns it into an admittance when modifiers act)."""
+        return T.motional_impedance(s, col(v, 0), col(v, 1), col(v, 2))
+
+    def jw_rational(self, v):
+        return T.motional_polynomials(v[:, 0], v[:, 1], v[:, 2])
 
 
-def _specs(*names):
-    return ParamSet(default_spec(n) for n in names)
+@dataclass(frozen=True)
+class Resistance(Term):
+    """The coil's DC resistance ``R0`` [Ω]."""
+
+    id = "resistance"
+    description = "coil DC resistance R0"
+    signature = "the real part of Z at low frequency, away from the resonance"
+
+    @classmethod
+    def default_params(cls):
+        return specs("R0")
+
+    def evaluate(self, s, v, other):
+        return col(v, 0) + 0 * s
+
+    def jw_rational(self, v):
+        return T.resistance_polynomials(v[:, 0])
+
+    def foster(self, v, sections):
+        return FosterPart(R=float(v[0]))
 
 
-def _col(values, i):
-    return values[:, i : i + 1]
+@dataclass(frozen=True)
+class Inductance(Term):
+    """Model I: ``L0 s`` [Ω]."""
+
+    id = "inductance"
+    coil = True
+    physics = "eddy_current"
+    description = "coil self-inductance L0 s (model I)"
+    signature = "|Z| rising in proportion to frequency, phase toward +90°"
+    #: the parameter, and its start when the linear coil stage gives it 0 (a multiple of the
+    #: plant's low-frequency inductance)
+    param: ClassVar[str] = "L0"
+    fallback_factor: ClassVar[float] = 1.0
+
+    @classmethod
+    def default_params(cls):
+        return specs(cls.param)
+
+    def evaluate(self, s, v, other):
+        return T.inductance(s, col(v, 0))
+
+    def jw_rational(self, v):
+        return T.inductance_polynomials(v[:, 0])
+
+    def foster(self, v, sections):
+        return FosterPart(G=float(v[0]))
+
+    def coil_start(self):
+        k = self.fallback_factor
+        return CoilStart(linear={self.param: _s}, fallback={self.param: lambda L_lf: k * L_lf})
 
 
-def motional() -> Term:
-    return Term("motional", "series", "motional", _specs("zeta", "omega0", "phi"),
-                lambda s, v: T.motional_impedance(s, _col(v, 0), _col(v, 1), _col(v, 2)),
-                "moving mass on a spring with viscous damping, coupled by phi (eq. 47)")
+@dataclass(frozen=True)
+class GapInductance(Inductance):
+    """The air-gap inductance ``Lg s`` [Ω] of model UD."""
+
+    id = "gap_inductance"
+    description = "air-gap inductance Lg s"
+    signature = "an inductive part of Z that eddy currents do not damp"
+    param = "Lg"
+    fallback_factor = 1e-3
 
 
-def resistance() -> Term:
-    return Term("resistance", "series", "electrical", _specs("R0"),
-                lambda s, v: _col(v, 0) + 0 * s, "coil DC resistance R0")
+@dataclass(frozen=True)
+class LossyInductance(Term):
+    """Model II: ``Rμ L0 s/(Rμ + L0 s)`` [Ω]."""
+
+    id = "lossy_inductance"
+    coil = True
+    physics = "eddy_current"
+    description = "inductance with lumped eddy loss Rmu || L0 s (model II)"
+    signature = _EDDY
+
+    @classmethod
+    def default_params(cls):
+        return specs("L0", "Rmu")
+
+    def evaluate(self, s, v, other):
+        return T.lossy_inductance(s, col(v, 0), col(v, 1))
+
+    def jw_rational(self, v):
+        return T.lossy_inductance_polynomials(v[:, 0], v[:, 1])
+
+    def foster(self, v, sections):
+        return FosterPart(L=np.array([v[0]]), tau=np.array([v[0] / v[1]]))
+
+    def coil_start(self):
+        # the scan runs over tau = L0/Rmu; the paper's own linearisation of 1/Zc competes
+        return CoilStart(
+            scan="tau", scan_range=(1e-12, 1e6),
+            basis=lambda s, p: s[None, :] / (1.0 + p[:, None] * s[None, :]),
+            to_params=lambda p, c: {"L0": c, "Rmu": c / p},
+            direct=lambda s, Ze, w, R0, L_lf: [("linear 1/L0, 1/Rmu",
+                                                lossy_inductance_linear(s, Ze, w, R0, L_lf))])
 
 
-def inductance() -> Term:
-    return Term("inductance", "series", "electrical", _specs("L0"),
-                lambda s, v: T.inductance(s, _col(v, 0)), "coil self-inductance L0 s (model I)")
+def _alpha_seeds(s, Ze, w, has_inductance):
+    a = rational_alpha(s, Ze, w, has_inductance)
+    return [] if a is None else [("rational Bessel alpha", a)]
 
 
-def gap_inductance() -> Term:
-    return Term("gap_inductance", "series", "electrical", _specs("Lg"),
-                lambda s, v: T.inductance(s, _col(v, 0)), "air-gap inductance Lg s")
+def bessel_sections(alpha: float, beta: float, sections: int):
+    """The first ``sections`` eddy-current modes of ``Z_III`` (Mittag-Leffler expansion of
+    ``I1/I0``), the rest lumped as an inductance, and the error coefficient ``E`` [Ω s²]:
+    ``L_k = 2β sqrt(α)/j_k²``, ``τ_k = α/j_k²`` (``j_k`` the zeros of ``J0``); the tail's inductance
+    ``β sqrt(α)/2 − Σ L_k`` keeps the low-frequency limit exact (``Σ 1/j_k² = 1/4``), and
+    ``E = 2 β α^{3/2} (1/32 − Σ_{k ≤ K} j_k⁻⁴)`` (Rayleigh's sum ``Σ j_k⁻⁴ = 1/32``)."""
+    if int(sections) != sections or sections < 1:
+        raise ValueError(f"sections must be a positive integer, got {sections!r}")
+    j = special.jn_zeros(0, int(sections))
+    L = 2.0 * beta * np.sqrt(alpha) / j**2
+    tau = alpha / j**2
+    tail_L = max(beta * np.sqrt(alpha) * (0.25 - np.sum(1.0 / j**2)) * 2.0, 0.0)
+    E = 2.0 * beta * alpha**1.5 * max(1.0 / 32.0 - float(np.sum(j**-4.0)), 0.0)
+    return L, tau, tail_L, E
 
 
-def lossy_inductance() -> Term:
-    return Term("lossy_inductance", "series", "electrical", _specs("L0", "Rmu"),
-                lambda s, v: T.lossy_inductance(s, _col(v, 0), _col(v, 1)),
-                "inductance with lumped eddy loss Rmu || L0 s (model II)")
+@dataclass(frozen=True)
+class BesselEddy(Term):
+    """Model III: ``β sqrt(s) I1(sqrt(α s))/I0(sqrt(α s))`` [Ω] (eddy currents in a uniform core)."""
+
+    id = "bessel_eddy"
+    coil = True
+    physics = "eddy_current"
+    description = "eddy currents distributed in a uniform cylindrical core (model III)"
+    signature = _EDDY + "; semi-inductor above 1/alpha (|Z| ∝ sqrt(ω), 45°)"
+
+    @classmethod
+    def default_params(cls):
+        return specs("alpha", "beta")
+
+    def evaluate(self, s, v, other):
+        return T.bessel_eddy(s, col(v, 0), col(v, 1))
+
+    def jw_bessel(self, v):
+        return v[:, 0], v[:, 1]
+
+    def foster(self, v, sections):
+        L, tau, tail, E = bessel_sections(float(v[0]), float(v[1]), sections)
+        return FosterPart(G=tail, L=L, tau=tau, error_coeff=E,
+                          note=f"{int(sections)} eddy-current modes (Mittag-Leffler) + lumped tail")
+
+    def coil_start(self):
+        prior = self.params["alpha"].prior
+        return CoilStart(scan="alpha", scan_range=(prior.lower, prior.upper),
+                         basis=lambda s, p: T.bessel_eddy(s[None, :], p[:, None], 1.0),
+                         to_params=lambda p, c: {"alpha": p, "beta": c}, seeds=_alpha_seeds)
 
 
-def bessel_eddy() -> Term:
-    return Term("bessel_eddy", "series", "electrical", _specs("alpha", "beta"),
-                lambda s, v: T.bessel_eddy(s, _col(v, 0), _col(v, 1)),
-                "eddy currents distributed in a uniform cylindrical core (model III)")
-
-
-def ring_ladder(n_rings: int, n_turns: float) -> Term:
-    if int(n_rings) != n_rings or n_rings < 1:
+def _check_rings(n_rings) -> int:
+    if isinstance(n_rings, bool) or int(n_rings) != n_rings or n_rings < 1:
         raise ValueError(f"rings must be a positive integer, got {n_rings!r}")
-    n = int(n_rings)
-    names = ["Pg"] + [f"P{j}" for j in range(1, n + 1)] + [f"R{j}" for j in range(1, n + 1)]
-
-    def f(s, v):
-        return T.ring_ladder(s, v[:, 0], v[:, 1 : n + 1], v[:, n + 1 :], n_turns)
-
-    return Term("ring_ladder", "series", "electrical", _specs(*names), f,
-                f"non-uniform core cut into {n} rings, eddy current lumped per ring (eq. 41)")
+    return int(n_rings)
 
 
-def uniform_rings(n_rings: int, n_turns: float) -> Term:
-    n = int(n_rings)
-    if n != n_rings or n < 1:
-        raise ValueError(f"rings must be a positive integer, got {n_rings!r}")
-
-    def f(s, v):
-        Pg, P, R = T.uniform_rings(v[:, 0], v[:, 1], v[:, 2], n, n_turns)
-        return T.ring_ladder(s, Pg, P, R, n_turns)
-
-    return Term("uniform_rings", "series", "electrical", _specs("Lg", "alpha", "beta"), f,
-                f"uniform core, air gap, eddy currents lumped in {n} equal-area rings (UL)")
+def _check_turns(n_turns) -> float:
+    if not (np.isfinite(n_turns) and n_turns > 0):
+        raise ValueError(f"n_turns must be positive, got {n_turns!r}")
+    return float(n_turns)
 
 
-TERMS: dict[str, Callable[..., Term]] = {
-    "motional": motional,
-    "resistance": resistance,
-    "inductance": inductance,
-    "gap_inductance": gap_inductance,
-    "lossy_inductance": lossy_inductance,
-    "bessel_eddy": bessel_eddy,
-    "ring_ladder": ring_ladder,
-    "uniform_rings": uniform_rings,
-}
+@dataclass(frozen=True)
+class RingLadder(Term):
+    """Model NL: the coil coupled to ``n_rings`` resistive rings of a non-uniform core (eq. 41)."""
+
+    n_rings: int = 5
+    n_turns: float = 480.0
+    id = "ring_ladder"
+    coil = True
+    physics = "eddy_current"
+    description = "non-uniform core cut into n rings, eddy current lumped per ring (eq. 41)"
+    signature = _EDDY
+
+    def __post_init__(self):
+        object.__setattr__(self, "n_rings", _check_rings(self.n_rings))
+        object.__setattr__(self, "n_turns", _check_turns(self.n_turns))
+
+    @classmethod
+    def default_params(cls, n_rings: int = 5, n_turns: float = 480.0):
+        n = _check_rings(n_rings)
+        return specs("Pg", *[f"P{j}" for j in range(1, n + 1)], *[f"R{j}" for j in range(1, n + 1)])
+
+    def evaluate(self, s, v, other):
+        n = self.n_rings
+        return T.ring_ladder(s, v[:, 0], v[:, 1 : n + 1], v[:, n + 1 :], self.n_turns)
+
+    def jw_rational(self, v):
+        """The ladder's continued fraction as a polynomial pair (``terms.ladder_polynomials``)."""
+        n = self.n_rings
+        return T.ladder_polynomials(v[:, 0], v[:, 1 : n + 1], v[:, n + 1 :], self.n_turns)
+
+    def foster(self, v, sections):
+        n = self.n_rings
+        gap, Lk, tau = T.ring_ladder_modes(np.asarray(v[0]), v[1 : n + 1], v[n + 1 :], self.n_turns)
+        return FosterPart(G=float(gap), L=Lk, tau=tau)
+
+    def surrogate(self):
+        """Uniform rings (UL): three coil parameters put the 2n+1 ring parameters close (SPEC §3.1)."""
+        n, N = self.n_rings, self.n_turns
+
+        def convert(p):
+            Pg, P, R = T.uniform_rings(p["Lg"], p["alpha"], p["beta"], n, N)
+            out = {"Pg": float(Pg)}
+            out.update({f"P{j + 1}": float(P[j]) for j in range(n)})
+            out.update({f"R{j + 1}": float(R[j]) for j in range(n)})
+            return out
+
+        return UniformRings.make(n_rings=n, n_turns=N), convert
 
 
-def make_term(name: str, **kwargs) -> Term:
-    try:
-        factory = TERMS[name]
-    except KeyError:
-        raise KeyError(f"unknown physics term {name!r}; the catalogue has {sorted(TERMS)}") from None
-    return factory(**kwargs)
+@dataclass(frozen=True)
+class UniformRings(Term):
+    """Model UL: a uniform core with an air gap, eddy currents lumped in equal-area rings (SPEC §2)."""
+
+    n_rings: int = 5
+    n_turns: float = 480.0
+    id = "uniform_rings"
+    coil = True
+    physics = "eddy_current"
+    description = "uniform core, air gap, eddy currents lumped in n equal-area rings (UL)"
+    signature = _EDDY
+
+    def __post_init__(self):
+        object.__setattr__(self, "n_rings", _check_rings(self.n_rings))
+        object.__setattr__(self, "n_turns", _check_turns(self.n_turns))
+
+    @classmethod
+    def default_params(cls, n_rings: int = 5, n_turns: float = 480.0):
+        _check_rings(n_rings)
+        return specs("Lg", "alpha", "beta")
+
+    def _rings(self, v):
+        return T.uniform_rings(v[:, 0], v[:, 1], v[:, 2], self.n_rings, self.n_turns)
+
+    def evaluate(self, s, v, other):
+        Pg, P, R = self._rings(v)
+        return T.ring_ladder(s, Pg, P, R, self.n_turns)
+
+    def jw_rational(self, v):
+        Pg, P, R = self._rings(v)
+        return T.ladder_polynomials(Pg, P, R, self.n_turns)
+
+    def foster(self, v, sections):
+        Pg, P, R = T.uniform_rings(v[0], v[1], v[2], self.n_rings, self.n_turns)
+        gap, Lk, tau = T.ring_ladder_modes(np.asarray(Pg), P, R, self.n_turns)
+        return FosterPart(G=float(gap), L=Lk, tau=tau)
+
+    def coil_start(self):
+        n, N = self.n_rings, self.n_turns
+        prior = self.params["alpha"].prior
+
+        def basis(s, p):
+            Pg, P, R = T.uniform_rings(np.zeros_like(p), p, np.ones_like(p), n, N)
+            return T.ring_ladder(s, Pg, P, R, N)
+
+        # the Bessel term and the uniform rings both scale with beta at fixed alpha
+        return CoilStart(scan="alpha", scan_range=(prior.lower, prior.upper), basis=basis,
+                         to_params=lambda p, c: {"alpha": p, "beta": c}, linear_with_basis={"Lg": _s},
+                         seeds=_alpha_seeds, fallback={"Lg": lambda L_lf: 1e-3 * L_lf})

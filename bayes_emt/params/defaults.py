@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import re
 
-from .priors import LogUniform, Prior
+from .priors import LogUniform, Prior, Uniform
 from .spec import ParamSet, ParamSpec
 
 __all__ = ["default_spec", "NOISE_PARAMS", "NU_SPEC", "noise_param_set"]
@@ -36,6 +36,31 @@ _DEFAULTS: dict[str, tuple[str, str, Prior, str]] = {
     "c": ("N s/m", r"$c$", LogUniform(1e-9, 1e6), "mechanical viscous damping"),
     "k": ("N/m", r"$k$", LogUniform(1e-6, 1e10), "mechanical stiffness"),
     "phi_raw": ("N/A", r"$\varphi$", LogUniform(1e-6, 1e4), "electromechanical coupling (force factor Bl)"),
+    # augmentations of the physics catalogue (SPEC §7); same prior whatever the base model
+    "Cp": ("F", r"$C_p$", LogUniform(1e-13, 1e-5), "winding and lead capacitance across the terminals"),
+    "zeta2": ("1", r"$\zeta_2$", LogUniform(1e-4, 2.0), "damping ratio of a second mechanical mode"),
+    "omega2": ("rad/s", r"$\omega_2$", LogUniform(1e-1, 1e6), "natural angular frequency of a second mode"),
+    "phi2": ("N/(A kg^0.5)", r"$\bar\varphi_2$", LogUniform(1e-3, 1e4),
+             "mass-normalised coupling of a second mode"),
+    "Lb": ("H", r"$L_b$", LogUniform(1e-9, 1e3),
+           "box/port branch inductance (box stiffness seen through the motional branch)"),
+    "omegab": ("rad/s", r"$\omega_b$", LogUniform(1e-1, 1e6), "port (Helmholtz) tuning angular frequency"),
+    "zetab": ("1", r"$\zeta_b$", LogUniform(1e-4, 2.0), "damping ratio of the port/box resonance"),
+    "lambda_creep": ("1", r"$\lambda_c$", Uniform(0.0, 0.5),
+                     "suspension creep: compliance grows by lambda per e-fold of falling frequency"),
+    "drift": ("1", r"$\delta_T$", Uniform(-0.1, 0.1),
+              "relative change of R0 from the first to the last point of the sweep"),
+    "K_semi": ("ohm s^n", r"$K$", LogUniform(1e-10, 1e4), "semi-inductance scale (Leach 1999)"),
+    "n_semi": ("1", r"$n$", Uniform(0.0, 1.0), "semi-inductance exponent (0: resistor, 1: inductor)"),
+    "L_lr2": ("H", r"$L_2$", LogUniform(1e-8, 1e1), "LR-2 coil: second inductance"),
+    "R_lr2": ("ohm", r"$R_2$", LogUniform(1e-3, 1e5), "LR-2 coil: resistance shunting L_lr2"),
+    "Rl": ("ohm", r"$R_l$", LogUniform(1e-5, 1e2), "lead and fixture resistance in series"),
+    "Ll": ("H", r"$L_l$", LogUniform(1e-10, 1e-2), "lead and fixture inductance in series"),
+    "omegas": ("rad/s", r"$\omega_s$", LogUniform(1e-1, 1e7),
+               "angular frequency of an instrument range switch or calibration boundary"),
+    "delta_s": ("1", r"$\delta_s$", Uniform(-0.5, 0.5),
+                "relative magnitude step of the instrument above omegas"),
+    "psi_s": ("rad", r"$\psi_s$", Uniform(-0.5, 0.5), "phase step of the instrument above omegas"),
 }
 _RING = re.compile(r"^([PR])([1-9]\d*)$")  # ring j = 1..n; "R0" is the coil, not a ring
 

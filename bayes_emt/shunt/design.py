@@ -31,7 +31,7 @@ from scipy import optimize
 
 from ..models import Model
 from .receptance import Plant, rc_impedance
-from .stability import assess_stability, instability_threshold, threshold_grid
+from .stability import StabilityReport, assess_stability, instability_threshold, threshold_grid
 
 __all__ = ["ShuntDesign", "ShuntEvaluation", "ShuntWarning", "closed_form_rc", "design_rc_shunt",
            "evaluate_rc_shunt"]
@@ -133,15 +133,20 @@ def closed_form_rc(model: Model, theta) -> dict:
 
 
 def evaluate_rc_shunt(model: Model, theta, Rs: float, Cs: float, *, plant: Plant | None = None,
-                      grid=None) -> ShuntEvaluation:
+                      grid=None, bandwidth: float | None = None) -> ShuntEvaluation:
     """Attenuation and stability of the RC shunt ``(Rs [Ω], Cs [F])`` on ``model`` at ``theta``
     (cross-model evaluation: a design from one model evaluated on another)."""
     theta = np.asarray(theta, float)
     plant = plant or Plant(model, theta)
     pk = plant.peak(lambda s: rc_impedance(s, Rs, Cs))
     op = plant.open_peak()
-    rs_crit = float(instability_threshold(model, theta, Cs, grid=grid))
-    st = assess_stability(model, theta, Rs, Cs)
+    rs_crit = float(instability_threshold(model, theta, Cs, grid=grid, bandwidth=bandwidth))
+    if bandwidth is None:
+        st = assess_stability(model, theta, Rs, Cs)
+    else:
+        st = StabilityReport(bool(Rs > rs_crit), int(Rs <= rs_crit), None, None,
+                             f"no loop-reactance crossing below {bandwidth:.4g} rad/s (the ideal loop above "
+                             "the shunt's bandwidth is not analysed)")
     att = 20 * math.log10(pk.value / op.value) if st.stable else math.inf
     return ShuntEvaluation(model.label, float(Rs), float(Cs), att, pk.value, pk.omega, op.value, op.omega,
                            st.stable, rs_crit, float(Rs - rs_crit), st.max_pole_real, st.min_damping_ratio,
@@ -187,11 +192,11 @@ def _equal_peak_polish(plant: Plant, rs0: float, lcs0: float, split: float, widt
     return float(r.x), cs_star(float(r.x)), count[0]
 
 
-def _fallback_start(plant: Plant, model: Model, theta, L: float, grid) -> tuple[float, float]:
+def _fallback_start(plant: Plant, model: Model, theta, L: float, grid, bandwidth) -> tuple[float, float]:
     """Start when the closed form does not exist (φ̄² ≥ 2 L ω0²): the coil tuned to ω0 by Cs,
     ``Cs = 1/(L ω0²)``, and the best Rs for it (bounded 1-D search above the stability threshold)."""
     cs = 1.0 / (L * plant.omega0**2)
-    lo = float(instability_threshold(model, theta, cs, grid=grid, refine=False))
+    lo = float(instability_threshold(model, theta, cs, grid=grid, refine=False, bandwidth=bandwidth))
     if not math.isfinite(lo):
         lo = -plant.R0 - 1.0
     hi = lo + 2.0 * plant.R0 + 1.0
@@ -200,10 +205,11 @@ def _fallback_start(plant: Plant, model: Model, theta, L: float, grid) -> tuple[
     return float(r.x), cs
 
 
-def _polish(plant: Plant, model: Model, theta, grid, rs, lcs, rnet, lcs_max, info):
+def _polish(plant: Plant, model: Model, theta, grid, rs, lcs, rnet, lcs_max, info, bandwidth):
     """Polish a Nelder–Mead point: equal-peak solve where two peaks compete, else a smooth search."""
     def admissible(rs, lcs):
         return lcs <= lcs_max and rs > instability_threshold(model, theta, math.exp(lcs), grid=grid,
+                                                              bandwidth=bandwidth,
                                                               refine=False)
 
     def smooth(x):
@@ -228,15 +234,29 @@ def _polish(plant: Plant, model: Model, theta, grid, rs, lcs, rnet, lcs_max, inf
                 info["polish"] = "equal-peak optimum inadmissible (unstable or Cs above its bound)"
             except (ArithmeticError, ValueError) as exc:
                 info["polish"] = f"equal-peak polish failed ({exc})"
-        r2 = optimize.minimize(smooth, [rs, lcs], method="Nelder-Mead",
-                               options={"xatol": 1e-10, "fatol": 1e-14, "maxfev": 2000})
+        with np.errstate(invalid="ignore"):  # inadmissible vertices score inf (inf - inf in the test)
+            r2 = optimize.minimize(smooth, [rs, lcs], method="Nelder-Mead",
+                                   options={"xatol": 1e-10, "fatol": 1e-14, "maxfev": 2000})
         info["nfev_polish"] += int(r2.nfev)
         if r2.fun <= smooth([rs, lcs]):
             rs, lcs = float(r2.x[0]), float(r2.x[1])
     return rs, lcs
 
 
-def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = None) -> ShuntDesign:
+def _capacitive_threshold(model: Model, theta, grid) -> str | None:
+    """The warning to give when the ideal loop's threshold is Rs = 0 from a capacitive terminal
+    impedance at high frequency (a pole arriving from infinity), else ``None``."""
+    z = model.impedance_s(1j * grid[0][-2:], theta)
+    if abs(z[-1]) < abs(z[-2]) and float(instability_threshold(model, theta, 1.0, grid=grid)) >= 0.0:
+        return (f"model {model.label}: the terminal impedance turns capacitive at high frequency, so in "
+                "the ideal continuous-time loop any negative Rs is unstable (a real pole near 1/(|Rs| Cp) "
+                "rad/s); give the realisation's bandwidth (bandwidth=..., shunt --bandwidth) or check the "
+                "sampled-data realisation (shunt --implement)")
+    return None
+
+
+def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = None,
+                    bandwidth: float | None = None) -> ShuntDesign:
     """The H∞-optimal RC shunt for ``model`` at ``theta`` (SPEC §4, eq. 50; module docstring).
 
     Cs is bounded above by ``Cs_max = 1e3/(L ω0²)`` (capacitive reactance at ω0 below 1e-3 of the
@@ -250,6 +270,11 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
     model : transducer model (any; the closed-form start uses its equivalent L and R at ω0).
     theta : physical parameter vector ``(k,)``.
     start : optional ``(Rs [Ω], Cs [F])`` start; default the fixed-point closed form.
+    bandwidth : [rad/s] the shunt realisation's bandwidth for the stability constraint
+        (:func:`~bayes_emt.shunt.stability.instability_threshold`); ``None``: the ideal loop. With a
+        capacitance across the terminals the ideal loop is unstable for every negative Rs (a real pole
+        near ``1/(|Rs| Cp)`` rad/s, far above any realisation's bandwidth): a :class:`ShuntWarning`
+        says so and suggests giving the bandwidth.
 
     Returns
     -------
@@ -261,6 +286,10 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
         warnings.warn(f"model {model.label}: ζ = {plant.zeta:.3g} ≥ 1/√2, the open-terminal receptance has "
                       "no resonant peak; there is nothing for a shunt to damp", ShuntWarning, stacklevel=2)
     grid = threshold_grid(model, theta)
+    if bandwidth is None and not model.plain_mechanics:
+        cap = _capacitive_threshold(model, theta, grid)
+        if cap is not None:
+            warnings.warn(cap, ShuntWarning, stacklevel=2)
     zc = complex(plant.ze(np.array([plant.omega0]))[0]) - plant.R0
     L_eq = max(zc.imag / plant.omega0, 1e-300)
     lcs_max = math.log(1e3 / (L_eq * plant.omega0**2))
@@ -273,27 +302,30 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
     elif math.isfinite(cf["Cs"]):
         rs0, cs0 = cf["Rs"], cf["Cs"]
     else:
-        rs0, cs0 = _fallback_start(plant, model, theta, L_eq, grid)
+        rs0, cs0 = _fallback_start(plant, model, theta, L_eq, grid, bandwidth)
     nfev = [0]
 
     def objective(x):
         rs, lcs = x
         nfev[0] += 1
-        if lcs > lcs_max or rs <= instability_threshold(model, theta, math.exp(lcs), grid=grid, refine=False):
+        if lcs > lcs_max or rs <= instability_threshold(model, theta, math.exp(lcs), grid=grid, refine=False,
+                                                        bandwidth=bandwidth):
             return np.inf
         return math.log(plant.rc_peak_fast(rs, math.exp(lcs)))
 
     rnet = abs(plant.R0 + rs0 + zc.real) + 1e-3 * plant.R0
     x0 = np.array([rs0, min(math.log(cs0), lcs_max)])
     simplex = np.array([x0, x0 + [0.3 * rnet, 0.0], x0 + [0.0, -0.05]])
-    res = optimize.minimize(objective, x0, method="Nelder-Mead",
-                            options={"initial_simplex": simplex, "xatol": 1e-7, "fatol": 1e-10,
-                                     "maxiter": 2000, "maxfev": 4000})
+    with np.errstate(invalid="ignore"):  # inadmissible vertices score inf (inf - inf in the test)
+        res = optimize.minimize(objective, x0, method="Nelder-Mead",
+                                options={"initial_simplex": simplex, "xatol": 1e-7, "fatol": 1e-10,
+                                         "maxiter": 2000, "maxfev": 4000})
     info = {"method": "Nelder-Mead (Rs, log Cs) on the grid peak, then polish", "nfev_nelder_mead": nfev[0],
             "start": {"Rs": rs0, "Cs": cs0}}
-    rs, lcs = _polish(plant, model, theta, grid, float(res.x[0]), float(res.x[1]), rnet, lcs_max, info)
+    rs, lcs = _polish(plant, model, theta, grid, float(res.x[0]), float(res.x[1]), rnet, lcs_max, info,
+                      bandwidth)
     Cs = math.exp(lcs)
-    ev = evaluate_rc_shunt(model, theta, rs, Cs, plant=plant, grid=grid)
+    ev = evaluate_rc_shunt(model, theta, rs, Cs, plant=plant, grid=grid, bandwidth=bandwidth)
     final = plant.local_peaks(lambda s: rc_impedance(s, rs, Cs))
     hs = sorted((p.value for p in final), reverse=True)
     if lcs > lcs_max - 1e-3:
@@ -304,6 +336,7 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
         optimum = "single peak"
     cf_att = math.nan
     if math.isfinite(cf["Cs"]):
-        cf_att = evaluate_rc_shunt(model, theta, cf["Rs"], cf["Cs"], plant=plant, grid=grid).attenuation_db
+        cf_att = evaluate_rc_shunt(model, theta, cf["Rs"], cf["Cs"], plant=plant, grid=grid,
+                                   bandwidth=bandwidth).attenuation_db
     return ShuntDesign(**asdict(ev), closed_form={**cf, "attenuation_db": cf_att},
                        peaks=tuple((p.omega, p.value) for p in final), optimum=optimum, info=info)

@@ -1,15 +1,21 @@
-"""Shunted receptance (eq. 50) and its H∞ norm.
+"""Shunted receptance (eq. 50, generalised to every device term) and its H∞ norm.
 
-    G(s) = (1/m) / (s² + 2ζω0 s + ω0² + φ̄² s / (Zc(s) + R0 + Zs(s)))                    (50)
+    G(s) = (1/m) / (mech(s) + φ̄² s / (Ze(s) + Zx(s)))                                      (50)
+
+with the model's loop view (:meth:`~bayes_emt.models.Model.loop`): ``mech`` the mechanical polynomial
+``s² + 2ζω0 s + ω0²`` with every stiffness modifier (creep) and motional load (a vented box) of the
+model, ``Ze`` the device's series impedance besides the primary motional branch (``Zc + R0`` and any
+other mode or lead), and ``Zx`` the external network across the terminals: the shunt ``Zs`` in
+parallel with the device's own parallel admittance ``Yp`` (a winding capacitance),
+``Zx = Zs/(1 + Zs Yp)``; open terminals leave ``Yp`` alone. For the paper's models ``Yp = 0`` and
+this is eq. 50 exactly.
 
 The mass ``m`` is not identifiable from the terminals and cancels in the attenuation ratio
-``‖G_RC‖∞/‖G_open‖∞``, so everything here is the *mass-normalised* receptance ``m·G`` [s²]
-(units of 1/ω²). Only the model's own methods are used (``electrical_impedance_s`` for ``Zc + R0``,
-``mechanics`` for ``(ζ, ω0, φ̄)``), so any model, including augmented ones, works.
+``‖G_RC‖∞/‖G_open‖∞``, so everything here is the *mass-normalised* receptance ``m·G`` [s²].
 
 **H∞ norm.** ``|m·G(jω)|`` on a dense log grid around ω0 locates every local maximum; each is then
 refined by a bounded scalar (Brent) search in ``log ω`` on the exact model, to ~1e-12 relative in
-frequency and ~1e-14 in height. A :class:`Plant` caches ``Ze`` on the grid (and a cubic spline of it
+frequency and ~1e-14 in height. A :class:`Plant` caches the loop on the grid (and cubic splines of it
 in ``log ω``, accurate to ~1e-12) so an optimiser can evaluate many shunts cheaply.
 """
 
@@ -32,13 +38,22 @@ def rc_impedance(s, Rs, Cs):
     return Rs + 1.0 / (Cs * s)
 
 
+def _shunted(mech, phi2s, ze, yp, zs):
+    """``m·G`` from the loop parts; ``zs`` the shunt's impedance (``None``: open terminals)."""
+    if zs is None:
+        # open terminals: only the device's own parallel admittance closes the coil
+        return 1.0 / (mech + phi2s * yp / (1.0 + ze * yp))
+    return 1.0 / (mech + phi2s / (ze + zs / (1.0 + zs * yp)))
+
+
 def receptance(model: Model, theta, omega, Zs: Callable | None = None):
     """Mass-normalised receptance ``m·G(jω)`` [s²] of (50), vectorised.
 
     Parameters
     ----------
-    model : transducer model. theta : ``(..., k)`` parameter vectors. omega : ``(F,)`` [rad/s].
-    Zs : shunt impedance ``Zs(s) -> (F,)`` or ``(..., F)`` [Ω]; None for open terminals.
+    model : transducer model (any terms). theta : ``(..., k)`` parameter vectors.
+    omega : ``(F,)`` [rad/s]. Zs : shunt impedance ``Zs(s) -> (F,)`` or ``(..., F)`` [Ω]; None for
+    open terminals.
 
     Returns
     -------
@@ -46,16 +61,16 @@ def receptance(model: Model, theta, omega, Zs: Callable | None = None):
     """
     theta = np.asarray(theta, float)
     s = 1j * np.asarray(omega, float)
-    zeta, omega0, phi = (np.asarray(v)[..., None] for v in model.mechanics(theta))
-    mech = mechanical_polynomial(s, zeta, omega0)
-    if Zs is None:
-        return 1.0 / mech
-    return 1.0 / (mech + phi**2 * s / (model.electrical_impedance_s(s, theta) + Zs(s)))
+    lp = model.loop(s, theta)
+    phi2s = (np.asarray(lp.phi)[..., None] ** 2) * s
+    return _shunted(lp.mech, phi2s, lp.z_series, lp.y_parallel, None if Zs is None else Zs(s))
 
 
 def open_peak(model: Model, theta):
     """``(value [s²], omega [rad/s])`` of ``max |1/(s² + 2ζω0 s + ω0²)|``, closed form, vectorised:
-    ``1/(2ζ sqrt(1−ζ²) ω0²)`` at ``ω0 sqrt(1 − 2ζ²)`` for ``ζ < 1/√2`` (else ``1/ω0²`` at 0)."""
+    ``1/(2ζ sqrt(1−ζ²) ω0²)`` at ``ω0 sqrt(1 − 2ζ²)`` for ``ζ < 1/√2`` (else ``1/ω0²`` at 0).
+    Holds for models with plain mechanics and nothing across the terminals
+    (:attr:`Model.plain_mechanics`); :meth:`Plant.open_peak` handles the others numerically."""
     zeta, omega0, _ = (np.asarray(v, float) for v in model.mechanics(theta))
     under = zeta < 1 / np.sqrt(2)
     z = np.where(under, zeta, 0.5)
@@ -99,36 +114,52 @@ class Plant:
         self.R0 = float(self.theta[model.params.index("R0")])
         self.omega = np.geomspace(self.omega0 / span, self.omega0 * span, points)
         self.s = 1j * self.omega
-        self.Ze = model.electrical_impedance_s(self.s, self.theta)
-        self.mech = mechanical_polynomial(self.s, self.zeta, self.omega0)
+        lp = model.loop(self.s, self.theta)
+        self.Ze, self.mech, self.Yp = lp.z_series, lp.mech, lp.y_parallel
         self._lw = np.log(self.omega)
-        self._spline = interpolate.CubicSpline(self._lw, self.Ze)
+        # the plain mechanical polynomial is evaluated exactly; splines only for what the terms add
+        self._plain_mech = not any(t.device and t.stage in ("stiffness", "motional_parallel")
+                                   for t in model.terms)
+        self._spline = interpolate.CubicSpline(self._lw, np.stack([self.Ze, self.mech, self.Yp], axis=-1))
 
     # ---- evaluation --------------------------------------------------------------------------
-    def ze(self, omega, exact: bool = True):
-        """Blocked impedance ``Zc + R0`` [Ω] at ``omega`` [rad/s] (exact, or the cached spline)."""
+    def _parts(self, omega, exact: bool):
+        """``(mech, Ze, Yp)`` at ``omega`` [rad/s] (exact, or the cached splines inside the grid)."""
         omega = np.asarray(omega, float)
         if exact or np.any(omega < self.omega[0]) or np.any(omega > self.omega[-1]):
-            return self.model.electrical_impedance_s(1j * omega, self.theta)
-        return self._spline(np.log(omega))
+            lp = self.model.loop(1j * omega, self.theta)
+            return lp.mech, lp.z_series, lp.y_parallel
+        v = self._spline(np.log(omega))
+        mech = (mechanical_polynomial(1j * omega, self.zeta, self.omega0) if self._plain_mech else v[..., 1])
+        return mech, v[..., 0], v[..., 2]
+
+    def ze(self, omega, exact: bool = True):
+        """Series impedance ``Ze`` [Ω] (``Zc + R0`` and any other series device term) at ``omega``."""
+        return self._parts(omega, exact)[1]
 
     def receptance(self, omega, Zs: Callable | None = None, *, exact: bool = True):
         """``m·G(jω)`` [s²] at ``omega`` [rad/s]; ``Zs(s)`` the shunt (None: open terminals)."""
         omega = np.asarray(omega, float)
         s = 1j * omega
-        mech = mechanical_polynomial(s, self.zeta, self.omega0)
-        if Zs is None:
-            return 1.0 / mech
-        return 1.0 / (mech + self.phi**2 * s / (self.ze(omega, exact) + Zs(s)))
+        mech, ze, yp = self._parts(omega, exact)
+        return _shunted(mech, self.phi**2 * s, ze, yp, None if Zs is None else Zs(s))
 
     def grid_magnitude(self, Zs: Callable):
         """``|m·G|`` [s²] on the cached grid ``self.omega``."""
-        return np.abs(1.0 / (self.mech + self.phi**2 * self.s / (self.Ze + Zs(self.s))))
+        return np.abs(_shunted(self.mech, self.phi**2 * self.s, self.Ze, self.Yp, Zs(self.s)))
 
     def open_peak(self) -> Peak:
-        """H∞ norm of the open-terminal receptance (closed form, :func:`open_peak`)."""
-        v, w = open_peak(self.model, self.theta)
-        return Peak(float(v), float(w))
+        """H∞ norm of the open-terminal receptance: closed form (:func:`open_peak`) for plain
+        mechanics, else the largest refined maximum of the exact open-terminal receptance."""
+        if self.model.plain_mechanics:
+            v, w = open_peak(self.model, self.theta)
+            return Peak(float(v), float(w))
+        g = np.abs(self.receptance(self.omega, None))
+        idx = _local_max_indices(g)
+        if idx.size == 0 or idx[np.argmax(g[idx])] in (0, g.size - 1):
+            return self._wide_peak(None)
+        i = int(idx[np.argmax(g[idx])])
+        return self._refine(None, i, self._lw[i - 1], self._lw[i + 1], True)
 
     def rc_peak_fast(self, Rs: float, Cs: float) -> float:
         """Peak of ``|m·G_RC|`` [s²] from the grid with parabolic interpolation in ``log ω`` (for

@@ -6,7 +6,11 @@ With the shunt ``Zs = Rs + 1/(Cs s)`` closing the terminals, the closed-loop pol
 
 (``mech = s² + 2ζω0 s + ω0²``, ``Ze = Zc + R0``): the denominator of (50) cleared of ``1/(Cs s)``.
 ``H`` is analytic in the closed right half-plane for every model (a passive coil's ``Ze`` has its
-poles at ``Re s < 0``; the Bessel models' are on the negative real axis).
+poles at ``Re s < 0``; the Bessel models' are on the negative real axis). For a model with device
+terms beyond the paper's (a capacitance across the terminals, another mode, creep, a port),
+``Z`` below is the device's terminal impedance ``Z_t = 1/Y_device`` (:meth:`Model.impedance_s`) and
+``H = mech (Cs s (Z_t + Rs) + 1)`` (:func:`characteristic_function`); ``Z_t`` is positive-real, so
+the same arguments hold.
 
 **Threshold in Rs (any model).** A pole lies on the imaginary axis at ``jω`` exactly when the total
 loop impedance vanishes, ``Z(jω) + Rs + 1/(jω Cs) = 0`` with ``Z = Ze + φ̄² s/mech`` the terminal
@@ -67,17 +71,26 @@ def threshold_grid(model: Model, theta, *, decades=(5.0, 6.0), points: int = 400
 
 
 def _infinity_candidate(model: Model, theta, omega0: float) -> float:
-    """``−Ze(j∞)`` when the blocked impedance is bounded at high frequency, else −inf."""
+    """``−Z_t(∞)`` when the terminal impedance stays bounded at high frequency, else −inf.
+
+    With ``Z_t ≈ Z∞ + c/s`` (``c > 0``) for large ``s``, the loop ``Rs + 1/(Cs s) + Z_t`` has a root
+    ``s ≈ −(1/Cs + c)/(Rs + Z∞)``, real and in the right half-plane once ``Rs < −Z∞``: a pole arrives
+    from infinity. ``Z∞`` is a resistance for a coil without series inductance (model II) and 0 when a
+    capacitance across the terminals takes over (any negative Rs is then unstable in the ideal loop,
+    at ``s ≈ 1/(|Rs| Cp)``; see ``bandwidth`` in :func:`instability_threshold`)."""
     if has_foster_form(model):
         f = foster_realisation(model, theta)
         return -(f.R0 + float(np.sum(f.R))) if f.G <= 0 else -np.inf
-    z = model.electrical_impedance_s(1j * omega0 * np.array([1e8, 1e10]), theta)
+    z = model.impedance_s(1j * omega0 * np.array([1e8, 1e10]), theta)
     if abs(z[1] - z[0]) <= 1e-6 * abs(z[1]) and abs(z[1].imag) <= 1e-6 * abs(z[1]):
         return -float(z[1].real)
+    if abs(z[1]) <= 0.02 * abs(z[0]):  # decays like 1/s (or faster): Z∞ = 0
+        return 0.0
     return -np.inf
 
 
-def instability_threshold(model: Model, theta, Cs: float, *, grid=None, refine: bool = True):
+def instability_threshold(model: Model, theta, Cs: float, *, grid=None, refine: bool = True,
+                          bandwidth: float | None = None):
     """The Rs [Ω] below which the RC-shunted loop is unstable (module docstring).
 
     Parameters
@@ -88,17 +101,21 @@ def instability_threshold(model: Model, theta, Cs: float, *, grid=None, refine: 
     grid : a :func:`threshold_grid` result for this ``theta`` (one vector only), to reuse.
     refine : polish each candidate crossing with Brent's method on the exact model (else linear
         interpolation on the grid, ~1e-6 Ω; what the optimiser uses).
+    bandwidth : [rad/s] the shunt realisation's bandwidth: crossings above it and poles arriving from
+        infinity are left out (a synthetic impedance has no gain there). ``None``: the ideal loop.
     """
     theta = np.asarray(theta, float)
     if theta.ndim > 1:
         flat = theta.reshape(-1, theta.shape[-1])
-        out = [instability_threshold(model, t, Cs, refine=refine) for t in flat]
+        out = [instability_threshold(model, t, Cs, refine=refine, bandwidth=bandwidth) for t in flat]
         return np.array(out).reshape(theta.shape[:-1])
     if not (Cs > 0 and math.isfinite(Cs)):
         raise ValueError(f"Cs must be a positive capacitance [F], got {Cs!r}")
     omega, Z = grid if grid is not None else threshold_grid(model, theta)
     X = Z.imag - 1.0 / (omega * Cs)
     idx = np.flatnonzero(np.sign(X[:-1]) != np.sign(X[1:]))
+    if bandwidth is not None:
+        idx = idx[omega[idx] <= bandwidth]
     f = X[idx] / (X[idx] - X[idx + 1])
     cand = -(Z[idx].real + f * (Z[idx + 1].real - Z[idx].real))
     if refine and idx.size:
@@ -112,16 +129,22 @@ def instability_threshold(model: Model, theta, Cs: float, *, grid=None, refine: 
             wc = optimize.brentq(x_exact, omega[i], omega[i + 1], xtol=1e-15 * omega[i], rtol=1e-15)
             cand[j] = -float(model.impedance_s(np.array([1j * wc]), theta)[0].real)
     best = float(np.max(cand)) if cand.size else -np.inf
+    if bandwidth is not None:
+        return best
     return max(best, _infinity_candidate(model, theta, float(model.mechanics(theta)[1])))
 
 
 def characteristic_function(model: Model, theta, Rs: float, Cs: float, omega):
-    """``H(jω) = mech (Cs jω (Ze + Rs) + 1) − φ̄² Cs ω²`` (module docstring), ``omega`` [rad/s]."""
-    zeta, omega0, phi = _mech(model, theta)
+    """``H(jω)`` (module docstring), ``omega`` [rad/s]: ``mech (Cs s (Z_t + Rs) + 1)`` with ``Z_t`` the
+    device's terminal impedance, written without the motional branch's poles,
+    ``mech Z_t = (φ̄² s + mech Ze) mech/(mech + Yp (φ̄² s + mech Ze))`` (``= φ̄² s + mech Ze`` when
+    nothing sits across the terminals: the paper's ``mech (Cs s (Ze + Rs) + 1) + φ̄² Cs s²``)."""
     s = 1j * np.asarray(omega, float)
-    mech = s * s + 2 * zeta * omega0 * s + omega0**2
-    ze = model.electrical_impedance_s(s, theta)
-    return mech * (Cs * s * (ze + Rs) + 1.0) + phi**2 * Cs * s * s
+    lp = model.loop(s, theta)
+    mech, ze, yp = lp.mech, lp.z_series, lp.y_parallel
+    num = float(lp.phi) ** 2 * s + mech * ze
+    mz = num if not np.any(yp) else num * mech / (mech + yp * num)
+    return Cs * s * (mz + mech * Rs) + mech
 
 
 def count_unstable_poles(model: Model, theta, Rs: float, Cs: float, *, max_points: int = 400_000) -> int:

@@ -1,11 +1,15 @@
 """``bayes-emt fit DATA --model M [--rings N] [--json OUT]``: automatic initial estimate and
 two-step weighted least squares (SPEC §3.1–3.2); prints name, value, unit and standard error of
-every parameter, the rms relative residual and chi², and writes
-:meth:`~bayes_emt.estimation.results.FitResult.to_json_dict` as JSON (atomically)."""
+every parameter, the rms relative residual and chi², the fit's warnings (model inadequate,
+parameter at a bound, parameters not identifiable, resonance outside the data:
+:mod:`bayes_emt.estimation.adequacy`), and writes
+:meth:`~bayes_emt.estimation.results.FitResult.to_json_dict` as JSON (atomically; never over the
+measurement file)."""
 
 from __future__ import annotations
 
-from ._common import add_data_args, add_model_args, print_table
+from ..paths import check_outputs
+from ._common import add_data_args, add_model_args, model_from_args, print_table, print_warnings
 
 
 def register(sub) -> None:
@@ -25,11 +29,11 @@ def run(args) -> int:
     from ...estimation.fitting import fit_admittance
     from ...io import read_measurement
     from ...io.paramfile import write_json
-    from ...models import build_model
 
+    check_outputs([("--json", args.json)], [("DATA", args.data)])
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
                             quantity=args.quantity).select(args.omega_min, args.omega_max)
-    model = build_model(args.model, rings=args.rings, n_turns=args.n_turns)
+    model = model_from_args(args)
     fit = fit_admittance(meas, model)
     se = fit.stderr
     rows = [(s.name, format_value(v), s.unit, format_value(se[s.name]))
@@ -44,8 +48,7 @@ def run(args) -> int:
         print(f"note: the optimiser did not converge ({fit.message})")
     if fit.cov_z is None:
         print("note: the Jacobian is rank-deficient; no standard errors")
-    if fit.info.get("at_prior_bound"):
-        print(f"note: at the edge of the physical range: {', '.join(fit.info['at_prior_bound'])}")
+    print_warnings(fit.warnings)
     if args.json:
         write_json(args.json, fit.to_json_dict())
         print(f"wrote {args.json}")

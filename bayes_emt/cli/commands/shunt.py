@@ -10,7 +10,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ...models import MODEL_NAMES
+from ..paths import check_outputs
+from ._common import check_model_matches, int_at_least, positive_float
 
 TABLE7 = {"r_in": 0.0996, "k_in": 99.23, "k_out": 0.9846, "fs": 5000.0}
 
@@ -20,20 +21,25 @@ def register(sub) -> None:
                        description=__doc__.split("\n\n", 1)[1])
     p.add_argument("--params", required=True, metavar="P.json",
                    help='parameter file {"model", "rings"?, "parameters"} (as fit --json writes)')
-    p.add_argument("--model", default=None, type=str.upper, choices=list(MODEL_NAMES),
-                   help="optional check: the model the parameter file must hold")
+    p.add_argument("--model", default=None, metavar="SPEC",
+                   help="optional check: the model (spec) the parameter file must hold")
     p.add_argument("--json", default=None, metavar="OUT", help="write the design as JSON here")
     p.add_argument("--evaluate-on", default=None, metavar="P2.json",
                    help="also evaluate the design on another parameter file (e.g. the best model)")
     p.add_argument("--implement", action="store_true",
                    help="discretise the controller (eqs. 55-56, Tustin) and evaluate it")
-    p.add_argument("--r-in", type=float, default=None, help="sense resistor R_in [ohm] (Table 7: 0.0996)")
-    p.add_argument("--k-in", type=float, default=None, help="input gain K_in (Table 7: 99.23)")
-    p.add_argument("--k-out", type=float, default=None, help="output gain K_out (Table 7: 0.9846)")
-    p.add_argument("--fs", type=float, default=None, help="DSP sample rate [Hz] (Table 7: 5000)")
-    p.add_argument("--delay", type=int, nargs="?", const=1, default=None, metavar="SAMPLES",
+    p.add_argument("--r-in", type=positive_float, default=None,
+                   help="sense resistor R_in [ohm] (Table 7: 0.0996)")
+    p.add_argument("--k-in", type=positive_float, default=None, help="input gain K_in (Table 7: 99.23)")
+    p.add_argument("--k-out", type=positive_float, default=None, help="output gain K_out (Table 7: 0.9846)")
+    p.add_argument("--fs", type=positive_float, default=None, help="DSP sample rate [Hz] (Table 7: 5000)")
+    p.add_argument("--delay", type=int_at_least(0), nargs="?", const=1, default=None, metavar="SAMPLES",
                    help="computation delay in samples (flag alone: 1; default 0)")
     p.add_argument("--plot", default=None, metavar="DIR", help="write receptance and attenuation-map PNGs")
+    p.add_argument("--bandwidth", type=positive_float, default=None, metavar="RAD_S",
+                   help="the shunt realisation's bandwidth [rad/s]: the stability constraint leaves out the "
+                        "ideal loop above it (needed with a capacitance across the terminals); default: "
+                        "ideal loop")
     p.set_defaults(func=run)
 
 
@@ -46,7 +52,6 @@ def _fmt_margin(ev) -> str:
 
 
 def run(args) -> int:
-    from ...errors import DataFormatError
     from ...io.paramfile import read_param_file, write_json
     from ...shunt import design_rc_shunt, evaluate_rc_shunt
     from ...shunt.implementation import realise_rc_shunt
@@ -54,10 +59,13 @@ def run(args) -> int:
     rig = {k: getattr(args, k) for k in ("r_in", "k_in", "k_out", "fs")}
     if not args.implement and (any(v is not None for v in rig.values()) or args.delay is not None):
         raise ValueError("--r-in, --k-in, --k-out, --fs and --delay apply to --implement only")
+    inputs = [("--params", args.params), ("--evaluate-on", args.evaluate_on)]
+    check_outputs([("--json", args.json)], inputs, folders=[("--plot", args.plot, ())])
     model, theta = read_param_file(args.params)
-    if args.model is not None and args.model != model.name:
-        raise DataFormatError(f"{args.params}: holds model {model.name}, but --model {args.model} was given")
-    d = design_rc_shunt(model, theta)
+    check_model_matches(model, args.model, args.params)
+    plots = [f"shunt_{model.spec}_{name}.png" for name in ("receptance", "attenuation_map")]
+    check_outputs([("--json", args.json)], inputs, folders=[("--plot", args.plot, plots)])
+    d = design_rc_shunt(model, theta, bandwidth=args.bandwidth)
     out = d.to_json_dict()
     out["params"] = str(args.params)
     out["units"] = {"Rs": "ohm", "Cs": "F", "attenuation_db": "dB", "peak": "s^2 (mass-normalised m*G)",
@@ -73,7 +81,7 @@ def run(args) -> int:
     print("  " + _fmt_margin(d))
     if args.evaluate_on:
         m2, th2 = read_param_file(args.evaluate_on)
-        ev = evaluate_rc_shunt(m2, th2, d.Rs, d.Cs)
+        ev = evaluate_rc_shunt(m2, th2, d.Rs, d.Cs, bandwidth=args.bandwidth)
         out["evaluated_on"] = {"params": str(args.evaluate_on), **ev.to_json_dict()}
         print(f"  on {m2.label} ({args.evaluate_on}): attenuation {ev.attenuation_db:.3f} dB; "
               + _fmt_margin(ev))
@@ -100,7 +108,7 @@ def run(args) -> int:
         folder.mkdir(parents=True, exist_ok=True)
         for name, fig in (("receptance", plot_receptance(d, model, theta)),
                           ("attenuation_map", plot_attenuation_map(d, model, theta))):
-            path = folder / f"shunt_{model.name}_{name}.png"
+            path = folder / f"shunt_{model.spec}_{name}.png"  # the names checked above
             save_figure(fig, path, dpi=120)
             print(f"  wrote {path}")
     if args.json:

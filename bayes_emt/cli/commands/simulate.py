@@ -7,7 +7,9 @@ The parameter file is what ``bayes-emt fit --json`` writes (``{"model", "rings",
 
 from __future__ import annotations
 
-from ...models import MODEL_NAMES
+from ...io._rows import MIN_POINTS
+from ..paths import check_outputs
+from ._common import check_model_matches, int_at_least, positive_float, seed
 
 
 def register(sub) -> None:
@@ -16,17 +18,18 @@ def register(sub) -> None:
                                    "and write it as a measurement file.")
     p.add_argument("--params", required=True, help='JSON {"model", "parameters"} (as fit --json writes)')
     p.add_argument("--out", required=True, help="output file (.csv native, or .zma)")
-    p.add_argument("--model", type=str.upper, choices=list(MODEL_NAMES), default=None,
-                   help="check that the parameter file holds this model")
-    p.add_argument("--rings", type=int, default=None,
+    p.add_argument("--model", default=None, metavar="SPEC",
+                   help="check that the parameter file holds this model (a spec: UD, NL+winding_capacitance)")
+    p.add_argument("--rings", type=int_at_least(1), default=None,
                    help="rings: for UL the discretisation (default: the file's, else 5); "
                         "for NL it must match the file's P1..Pn")
     p.add_argument("--noise", type=float, default=0.002,
                    help="relative complex Gaussian noise per real/imag part (default 0.002 = 0.2 %%)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    p.add_argument("--omega-min", type=float, default=1e1, help="lowest omega, rad/s (default 10)")
-    p.add_argument("--omega-max", type=float, default=1e5, help="highest omega, rad/s (default 1e5)")
-    p.add_argument("--points", type=int, default=2000, help="log-spaced points (default 2000)")
+    p.add_argument("--seed", type=seed, default=0, help="noise seed, a non-negative integer (default 0)")
+    p.add_argument("--omega-min", type=positive_float, default=1e1, help="lowest omega, rad/s (default 10)")
+    p.add_argument("--omega-max", type=positive_float, default=1e5, help="highest omega, rad/s (default 1e5)")
+    p.add_argument("--points", type=int_at_least(MIN_POINTS, " (the readers, and so fit, refuse fewer)"),
+                   default=2000, help=f"log-spaced points, at least {MIN_POINTS} (default 2000)")
     p.set_defaults(func=run)
 
 
@@ -38,25 +41,25 @@ def _with_rings(model, theta, rings: int | None, where: str):
     if rings is None or rings == model.rings:
         return model, theta
     if model.rings is None:
-        raise DataFormatError(f"{where}: model {model.name} has no rings; drop --rings")
-    if model.name != "UL":
-        raise DataFormatError(f"{where}: holds {model.label} parameters (P1..P{model.rings}), "
-                              f"so --rings {rings} does not fit them")
+        raise DataFormatError(f"{where}: model {model.label} has no rings; drop --rings")
     try:
-        return build_model(model.name, rings=rings, n_turns=model.n_turns), theta
+        other = build_model(model.spec, rings=rings, n_turns=model.n_turns)
     except ValueError as exc:
         raise DataFormatError(f"--rings: {exc}") from None
+    if other.names != model.names:  # the ring parameters themselves are in the file (NL)
+        raise DataFormatError(f"{where}: holds {model.label} parameters (P1..P{model.rings}), "
+                              f"so --rings {rings} does not fit them")
+    return other, theta
 
 
 def run(args) -> int:
-    from ...errors import DataFormatError
     from ...io import write_measurement
     from ...io.paramfile import read_param_file
     from ...io.simulate import log_omega_grid, simulate
 
+    check_outputs([("--out", args.out)], [("--params", args.params)])
     model, theta = read_param_file(args.params)
-    if args.model is not None and args.model != model.name:
-        raise DataFormatError(f"{args.params}: holds model {model.name}, but --model {args.model} was given")
+    check_model_matches(model, args.model, args.params)
     model, theta = _with_rings(model, theta, args.rings, args.params)
     omega = log_omega_grid(args.omega_min, args.omega_max, args.points)
     meas = simulate(model, theta, omega, noise=args.noise, seed=args.seed, source=str(args.out))

@@ -1,0 +1,157 @@
+"""``bayes-emt compare DATA``: model comparison by evidence.
+
+For every model spec in ``--models`` (resolved by ``bayes_emt.api.as_model``; NL and UL get one
+model per ring count of ``--rings``) the log evidence log Z [nats] comes from two independent
+estimators, nested sampling from the prior (dynesty) and bridge sampling on the emcee posterior,
+with Laplace at the optimum as a screen; then Bayes factors between all candidates on Kass &
+Raftery's scale (|ln B| < 1 inconclusive), PSIS-LOO beside them, how each log Z moves when every
+prior width is doubled, and, with several ring counts, the NL ring count by evidence beside the
+Hankel-singular-value choice. Results go to ``--json`` after every model, so a re-run with the
+same ``--json`` skips finished models and resumes an interrupted one from its checkpoints
+(posteriors, nested runs and checkpoints in ``--work``, default ``OUT stem + _runs``).
+Exit status 0, or 1 when a result is flagged (see the warnings), 2 on a user error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from ._common import add_data_args, print_table
+
+
+def register(sub) -> None:
+    p = sub.add_parser("compare", help="model comparison by evidence (nested + bridge sampling)",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("data", help="measurement file")
+    add_data_args(p)
+    p.add_argument("--models", default="I,II,III,UD,UL,NL",
+                   help="comma-separated model specs (default I,II,III,UD,UL,NL)")
+    p.add_argument("--rings", default=None,
+                   help="ring counts for NL/UL, e.g. 1-7 or 2,3,5 (default: the model's own, 5)")
+    p.add_argument("--json", default=None, metavar="OUT", help="results JSON (written after every model; "
+                   "re-run with the same OUT to resume)")
+    p.add_argument("--work", default=None, metavar="DIR",
+                   help="folder for posteriors, nested runs and checkpoints (default: OUT stem + _runs)")
+    p.add_argument("--plot", default=None, metavar="DIR", help="write the log Z bar chart here")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--methods", default="laplace,bridge,nested",
+                   help="evidence estimators to run (default laplace,bridge,nested)")
+    p.add_argument("--nlive", type=int, default=None, help="nested sampling live points (default 100)")
+    p.add_argument("--walks", type=int, default=None, help="random-walk steps per new point (default 100)")
+    p.add_argument("--nested-repeats", type=int, default=1, help="nested runs per model (default 1)")
+    p.add_argument("--max-steps", type=int, default=None, help="emcee step budget (default 20000)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=run)
+
+
+def _specs(models: str, rings_text: str | None):
+    from ...api import as_model
+    from ...evidence.rings import parse_rings
+
+    names = [m.strip() for m in models.split(",") if m.strip()]
+    if not names:
+        raise ValueError("--models: no model given")
+    rings = None if rings_text is None else parse_rings(rings_text)
+    specs, ringed = [], []
+    for name in names:
+        try:
+            base = as_model(name)
+        except (ValueError, KeyError) as exc:
+            raise ValueError(f"--models: {name}: {exc.args[0] if exc.args else exc}") from None
+        if base.rings is None or rings is None:
+            specs.append((name, base))
+            continue
+        ringed.append(name)
+        for n in rings:
+            specs.append((name if len(rings) == 1 else f"{name}({n})", as_model(name, rings=n)))
+    return specs, ringed, rings
+
+
+def run(args) -> int:
+    from ...evidence.compare import CompareSettings, compare_models
+    from ...evidence.nested import NestedSettings
+    from ...evidence.records import Comparison
+    from ...evidence.rings import ring_choice
+    from ...inference.sampling import SamplerSettings
+    from ...io import read_measurement
+
+    methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
+    knobs = (("n_live", args.nlive), ("walks", args.walks))
+    nested = NestedSettings(**{k: v for k, v in knobs if v is not None})
+    sampler = SamplerSettings(**({} if args.max_steps is None else {"max_steps": args.max_steps}))
+    settings = CompareSettings(seed=args.seed, methods=methods, nested=nested, sampler=sampler,
+                               nested_repeats=args.nested_repeats)
+    specs, ringed, rings = _specs(args.models, args.rings)
+    meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
+                            quantity=args.quantity).select(args.omega_min, args.omega_max)
+    if args.json and Path(args.json).resolve() == Path(args.data).resolve():
+        raise ValueError(f"{args.json}: the results file must not be the data file")
+    print(f"comparing {len(specs)} model(s) on {meas.source} ({meas.n_points} points, "
+          f"{meas.omega[0]:.4g}..{meas.omega[-1]:.4g} rad/s), seed {args.seed}, methods {', '.join(methods)}")
+
+    def show(m, reused):
+        by = ", ".join(f"{k} {v['log_evidence']:.2f}"
+                       + (f" +- {v['err']:.2f}" if v.get("err") is not None else "")
+                       for k, v in m.by_method.items() if v.get("log_evidence") is not None)
+        print(f"  {m.name}: log Z = {m.log_evidence:.2f} +- {m.log_evidence_err:.2f} nats ({by}; "
+              f"{'reused' if reused else f'{m.seconds_total:.0f} s'})", flush=True)
+
+    cmp = compare_models(meas, specs, settings=settings, results=args.json, workdir=args.work,
+                         progress=not args.quiet, on_model=show)
+    if ringed and rings is not None and len(rings) > 1:
+        from dataclasses import replace
+
+        group = [m for m in cmp.models if m.rings is not None and m.name.rsplit("(", 1)[0] == ringed[0]]
+        cmp = replace(cmp, rings=ring_choice(meas, group, max_rings=max(7, max(rings))))
+    _report(cmp)
+    if args.json:
+        from ...io.paramfile import write_json
+
+        write_json(args.json, cmp.to_json_dict())
+        print(f"wrote {args.json}")
+    if args.plot:
+        from ...plotting import save_figure
+        from ...plotting.evidence import plot_evidence
+
+        folder = Path(args.plot)
+        folder.mkdir(parents=True, exist_ok=True)
+        path = save_figure(plot_evidence(cmp), folder / "evidence.png")
+        print(f"wrote {path}")
+    assert isinstance(cmp, Comparison)
+    return 1 if cmp.all_warnings() else 0
+
+
+def _report(cmp) -> None:
+    d = cmp.to_json_dict()
+    rows = []
+    for m in d["models"]:
+        bm = m["by_method"]
+
+        def cell(k, bm=bm):
+            v = bm.get(k)
+            if not v or v.get("log_evidence") is None:
+                return "-"
+            return f"{v['log_evidence']:.2f}" + (f" +- {v['err']:.2f}" if v.get("err") is not None else "")
+
+        lz = "nan" if m["log_evidence"] is None else f"{m['log_evidence']:.2f} +- {m['log_evidence_err']:.2f}"
+        loo = "-" if m["elpd_loo"] is None else f"{m['elpd_loo']:.1f} +- {m['elpd_loo_se']:.1f}"
+        wid = m["prior_widths_doubled"].get("delta")
+        rows.append((m["name"], m["n_params"], lz, cell("nested"), cell("bridge"), cell("laplace"), loo,
+                     "-" if wid is None or not math.isfinite(wid) else f"{wid:+.2f}",
+                     f"{m['evidence_seconds']:.0f}"))
+    print_table(rows, ("model", "k", "log Z [nats]", "nested", "bridge", "laplace", "elpd_loo [nats]",
+                       "dlogZ (widths x2)", "time [s]"))
+    print(f"best: {d['best']} ({d['best_verdict']}); scale: {d['scale']}")
+    det = d["bayes_factor_details"]
+    surv = d["prior_sensitivity"]["survives"]
+    brow = [(k, f"{v['log_bayes_factor']:+.2f} +- {v['err']:.2f}", v["verdict"], v["favours"] or "-",
+             "yes" if surv.get(k) else "no") for k, v in det.items()]
+    if brow:
+        print_table(brow, ("pair A/B", "ln B [nats]", "verdict", "favours", "survives widths x2"))
+    if d["rings"]:
+        r = d["rings"]
+        print(f"NL ring count: {r.get('agreement')} (evidence rule: {r.get('rule')})")
+    for w in d["warnings"]:
+        print(f"warning: {w}")
