@@ -52,7 +52,8 @@ def posterior_mode(target, starts, cov, *, max_iter: int = 200) -> np.ndarray:
             v = -target.log_posterior_z(z0 + pts @ L.T)
             if not np.isfinite(v[-1]):
                 return np.inf, np.zeros(k)
-            g = (v[:k] - v[k : 2 * k]) / (2 * _FD_STEP)
+            with np.errstate(invalid="ignore"):  # both neighbours outside the support: inf - inf
+                g = (v[:k] - v[k : 2 * k]) / (2 * _FD_STEP)
             return v[-1], np.where(np.isfinite(g), g, 0.0)
 
         lp0 = -f_and_grad(np.zeros(k))[0]
@@ -68,7 +69,8 @@ def posterior_mode(target, starts, cov, *, max_iter: int = 200) -> np.ndarray:
         if lp > best_lp:
             best_z, best_lp = z, lp
     if best_z is None:
-        raise FitError(f"{target.label}: the posterior is zero at every start point")
+        raise FitError(f"{target.label}: could not start the walkers: the posterior is zero at every start "
+                       "point of the mode search (check the priors against the fitted values)")
     return best_z
 
 
