@@ -18,7 +18,9 @@ The quantity a Gaussian likelihood needs is the scaled squared residual
 admittance as ``Y = D/T`` with ``T = N + B D`` (``B`` the Bessel part), ``Y − Y_k = E/T`` with
 ``E = D − Y_k T``; ``D − Y_k N`` is linear in the polynomial coefficients, so the measured data
 and ``c_k`` are folded into the basis once and ``E`` costs one matrix product (plus ``B``'s terms).
-No complex division, no complex temporaries, no per-term arrays.
+No complex division, no complex temporaries, no per-term arrays. Parallel admittances (winding
+capacitance) are folded into the pair by :meth:`Model.jw_form
+<bayes_emt.models.model.Model.jw_form>` (then ``D/N`` is the whole admittance and ``B = 0``).
 
 A plan is only used after it reproduced :meth:`Model.admittance` at three parameter sets to
 1e-9 relative (:meth:`JwPlan.build`); a model with a term that offers no fast kernel (a creep,

@@ -33,7 +33,8 @@ is NaN-free: ``-inf`` outside the prior support or wherever the model cannot be 
 
 Evaluation (the statistical model above is unchanged by it): the model's admittance at the
 measured frequencies goes through a checked fast path when the model has one
-(:mod:`bayes_emt.inference.fastpath`: all six of the paper's models), and the Gaussian total
+(:mod:`bayes_emt.inference.fastpath`: all six of the paper's models, and augmented models whose
+terms all offer a kernel on ``s = jω``), and the Gaussian total
 ``__call__`` sums the noise terms without a logarithm per frequency where the absolute floor is
 negligible or dominant (:mod:`bayes_emt.inference.noise`); it equals ``pointwise(θ).sum(-1)`` to
 rounding (tests/test_likelihood_fastpath.py: 1e-10 relative in every noise regime).
