@@ -1,10 +1,17 @@
-"""Run every benchmark on this tree and on a baseline revision, side by side, and print the ratios.
+"""Run every benchmark on this tree and on a baseline revision, side by side, and print the ratios;
+then the figures of merit, written to ``benchmarks/results.json`` and ``benchmarks/RESULTS.md``.
 
-Each ``bench_*.py`` module defines ``BENCHMARKS``: a dict ``name -> callable`` (no arguments; one
-call is one timed unit of work), optionally ``setup()`` run once before timing and ``TARGETS``
-``{name: seconds}``. The same benchmark files (this tree's) are loaded by two worker processes:
-one imports ``bayes_emt`` from this working tree, the other from the baseline revision extracted
-with ``git archive``. The driver interleaves their calls (A B, B A, A B, ...) so that the drift of
+Each ``bench_*.py`` module may define ``BENCHMARKS``: a dict ``name -> callable`` (no arguments;
+one call is one timed unit of work), optionally ``setup()`` run once before timing and ``TARGETS``
+``{name: seconds}``; and ``measure()``, run on this tree only, returning the module's figures of
+merit: ``{"results": {key: value or {label: value}}, "targets": {"key" or "key.label":
+[">=" or "<=", number]}, "details": {...}}``. The results of every module are merged into
+``results.json`` (keys of modules not run this time are kept, so a new ``bench_*.py`` adds its keys
+without touching the others) and ``RESULTS.md`` is regenerated from it.
+
+The same benchmark files (this tree's) are loaded by two worker processes: one imports
+``bayes_emt`` from this working tree, the other from the baseline revision extracted with
+``git archive``. The driver interleaves their calls (A B, B A, A B, ...) so that the drift of
 a shared machine falls on both sides alike; the ratios compare code with code, here and now, never
 with times stored from another machine, day or build of numpy and scipy. Time is the best (minimum)
 of at least ``--repeat`` calls after one warm-up call, more for quick benchmarks until each side
@@ -16,6 +23,7 @@ Python-side allocations in one further call (``tracemalloc``, which sees numpy's
     .venv/bin/python benchmarks/run.py --baseline HEAD  # the effect of uncommitted changes
     .venv/bin/python benchmarks/run.py -k shunt         # only benchmarks whose name contains 'shunt'
     .venv/bin/python benchmarks/run.py --save-baseline  # pin HEAD as the baseline from now on
+    .venv/bin/python benchmarks/run.py --no-compare -k bessel   # only the Bessel figures of merit
 
 The pinned revision lives in ``benchmarks/baseline.json``. Targets (acceptance numbers such as
 "< 10 s for all six fits") are checked on this tree's times here, never in timed unit tests; a
@@ -37,6 +45,8 @@ import time
 import tracemalloc
 from pathlib import Path
 
+import report
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 BASELINE = HERE / "baseline.json"
@@ -45,14 +55,15 @@ BASELINE = HERE / "baseline.json"
 # ---- worker: one process, one source tree, commands on stdin, one JSON line per answer ------------
 def worker(src: Path, k: str) -> None:
     """Load this folder's benchmarks with ``bayes_emt`` imported from ``src``; then answer
-    ``time NAME`` (seconds of one call), ``memory NAME`` (peak MiB of one call) and ``quit``."""
+    ``time NAME`` (seconds of one call), ``memory NAME`` (peak MiB of one call), ``measure STEM``
+    (that module's figures of merit) and ``quit``."""
     sys.path.insert(0, str(src))
     import bayes_emt
 
     where = Path(bayes_emt.__file__).resolve()
     if src.resolve() not in where.parents:
         raise RuntimeError(f"imported bayes_emt from {where}, not from {src}")
-    fns, targets, errors = {}, {}, {}
+    fns, targets, errors, measures = {}, {}, {}, {}
     for stem in sorted(p.stem for p in HERE.glob("bench_*.py")):
         try:
             spec = importlib.util.spec_from_file_location(stem, HERE / f"{stem}.py")
@@ -63,17 +74,22 @@ def worker(src: Path, k: str) -> None:
         except Exception as exc:  # the baseline may predate what a benchmark uses
             errors[stem] = f"{type(exc).__name__}: {exc}"
             continue
+        if hasattr(mod, "measure") and k in stem:
+            measures[stem] = mod.measure
         for name, fn in getattr(mod, "BENCHMARKS", {}).items():
             if k in f"{stem}.{name}":
                 fns[f"{stem}.{name}"] = fn
                 if name in getattr(mod, "TARGETS", {}):
                     targets[f"{stem}.{name}"] = mod.TARGETS[name]
 
-    def answer(obj) -> None:
-        sys.stdout.write(json.dumps(obj) + "\n")
-        sys.stdout.flush()
+    protocol = sys.stdout
+    sys.stdout = sys.stderr  # whatever the benchmarks print must not mix with the answers
 
-    answer({"names": sorted(fns), "targets": targets, "errors": errors})
+    def answer(obj) -> None:
+        protocol.write(json.dumps(obj) + "\n")
+        protocol.flush()
+
+    answer({"names": sorted(fns), "targets": targets, "errors": errors, "measures": sorted(measures)})
     for line in sys.stdin:
         cmd, _, name = line.strip().partition(" ")
         if cmd == "quit":
@@ -83,6 +99,8 @@ def worker(src: Path, k: str) -> None:
                 t0 = time.perf_counter()
                 fns[name]()
                 answer({"value": time.perf_counter() - t0})
+            elif cmd == "measure":
+                answer({"value": measures[name]()})
             elif cmd == "memory":
                 tracemalloc.start()
                 try:
@@ -102,15 +120,17 @@ class _Worker:
     def __init__(self, src: Path, k: str, label: str):
         env = {**os.environ, "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "1"), "MPLBACKEND": "Agg"}
         self.label = label
+        self.err = tempfile.TemporaryFile(mode="w+")  # a pipe nobody reads could fill and block
         self.proc = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), "--worker", str(src),
                                       "-k", k], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=subprocess.PIPE, text=True, env=env, cwd=src, bufsize=1)
+                                     stderr=self.err, text=True, env=env, cwd=src, bufsize=1)
         self.info = self._read()
 
     def _read(self) -> dict:
         line = self.proc.stdout.readline()
         if not line:
-            raise SystemExit(f"bench: the {self.label} worker died:\n{self.proc.stderr.read().strip()}")
+            self.err.seek(0)
+            raise SystemExit(f"bench: the {self.label} worker died:\n{self.err.read().strip()[-5000:]}")
         return json.loads(line)
 
     def ask(self, cmd: str, name: str) -> tuple[float | None, str | None]:
@@ -201,6 +221,8 @@ def main(argv=None) -> int:
     ap.add_argument("-k", default="", help="substring filter on benchmark names")
     ap.add_argument("--save-baseline", action="store_true", help="pin HEAD as the baseline revision")
     ap.add_argument("--json", type=Path, help="also write the numbers to this JSON file")
+    ap.add_argument("--no-compare", action="store_true", help="skip the side-by-side timings")
+    ap.add_argument("--no-measure", action="store_true", help="skip the figures of merit")
     ap.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.worker:
@@ -213,6 +235,23 @@ def main(argv=None) -> int:
                                         "with this revision, both run here and now"}, indent=2) + "\n")
         print(f"baseline pinned to {sha[:12]} in {BASELINE}")
         return 0
+    missed, failed = [], {}
+    if not args.no_compare:
+        m, f = _compare_with_baseline(args)
+        missed += m
+        failed.update(f)
+    if not args.no_measure:
+        m, f = _measure(args)
+        missed += m
+        failed.update(f)
+    if failed:
+        print("failed on this tree: " + "; ".join(f"{k}: {v}" for k, v in failed.items()))
+    if missed:
+        print("targets missed: " + ", ".join(missed))
+    return 1 if missed or failed else 0
+
+
+def _compare_with_baseline(args) -> tuple[list, dict]:
     pinned = json.loads(BASELINE.read_text()).get("revision") if BASELINE.exists() else None
     rev = args.baseline or pinned
     if not rev:
@@ -257,11 +296,31 @@ def main(argv=None) -> int:
     if args.json:
         args.json.write_text(json.dumps({"baseline": sha, "results": res, "targets": now.info["targets"]},
                                         indent=2) + "\n")
-    if failed:
-        print("failed on this tree: " + "; ".join(f"{k}: {v}" for k, v in failed.items()))
-    if missed:
-        print("targets missed: " + ", ".join(missed))
-    return 1 if missed or failed else 0
+    report.record_comparison(sha, res)
+    return missed, failed
+
+
+def _measure(args) -> tuple[list, dict]:
+    """Every module's ``measure()`` on this tree, one worker; merged into results.json/RESULTS.md."""
+    now = _Worker(ROOT, args.k, "this tree's")
+    out, failed = {}, dict(now.info["errors"])
+    try:
+        for stem in now.info["measures"]:
+            print(f"\nmeasuring {stem} ...", flush=True)
+            t0 = time.perf_counter()
+            value, err = now.ask("measure", stem)
+            if err:
+                failed[stem] = err
+                continue
+            value["seconds"] = time.perf_counter() - t0
+            out[stem] = value
+    finally:
+        now.close()
+    merged = report.merge(out, revision=_git("rev-parse", "--short=12", "HEAD"),
+                           dirty=bool(_git("status", "--porcelain", "--untracked-files=no")))
+    print()
+    print(report.table(merged, only=set(out)))
+    return report.missed(merged, only=set(out)), failed
 
 
 if __name__ == "__main__":

@@ -243,7 +243,11 @@ def test_sigkill_and_resume_loses_nothing(meas, tmp_path):
     assert res.returncode == ref.returncode, res.stderr
     with h5py.File(tmp_path / "ref.h5", "r") as a, h5py.File(ck, "r") as b:
         na, nb = int(a["mcmc"].attrs["iteration"]), int(b["mcmc"].attrs["iteration"])
-        assert na == nb == 800
+        # the uninterrupted run ends where the stopping rule says (since issue 14's sampler, model I
+        # converges here at 600 steps, exit 0; a run that does not stops at the 800-step budget,
+        # exit 1); the killed and resumed run ends at the same step, and the kill came before it
+        assert na == nb and killed_at < na
+        assert (na == 800) if ref.returncode == 1 else (na < 800 and na % 100 == 0)
         for key in ("chain", "log_prob", "blobs"):
             np.testing.assert_array_equal(a["mcmc"][key][:na], b["mcmc"][key][:nb])
     import arviz as az

@@ -30,10 +30,19 @@ and scale ``σ_k`` (robust to outliers); ``ν`` fixed, or sampled (``nu=None``) 
 The pointwise ``log p_k`` (one value per frequency) feeds PSIS-LOO and the discrepancy analysis;
 :meth:`Likelihood.normalised_residuals` gives ``r_k/σ_k`` for whiteness tests. Every function
 is NaN-free: ``-inf`` outside the prior support or wherever the model cannot be evaluated.
+
+Evaluation (the statistical model above is unchanged by it): the model's admittance at the
+measured frequencies goes through a checked fast path when the model has one
+(:mod:`bayes_emt.inference.fastpath`: all six of the paper's models, and augmented models whose
+terms all offer a kernel on ``s = jω``), and the Gaussian total
+``__call__`` sums the noise terms without a logarithm per frequency where the absolute floor is
+negligible or dominant (:mod:`bayes_emt.inference.noise`); it equals ``pointwise(θ).sum(-1)`` to
+rounding (tests/test_likelihood_fastpath.py: 1e-10 relative in every noise regime).
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -46,31 +55,71 @@ from scipy import special
 from ..measurement import Measurement
 from ..models import Model
 from ..params import NOISE_PARAMS, NU_SPEC, ParamSet, noise_param_set
+from ..params.priors import LogUniform, Uniform
+from .fastpath import JwPlan
+from .noise import GaussianNoiseSums
 
 __all__ = ["NOISE_PARAMS", "NU_SPEC", "Likelihood", "LikelihoodKind", "SamplingSpaceDensity",
            "noise_param_set", "measurement_sha256"]
 
 LikelihoodKind = Literal["gaussian", "student"]
 
+class _BoxPrior:
+    """``ParamSet.log_prior_z`` and ``from_z`` in one vectorised pass: log-uniform and uniform
+    priors have a constant density in sampling space inside their support, so their columns cost
+    one bounds check; other priors go through their specs."""
+
+    def __init__(self, params: ParamSet):
+        self.params = params
+        self.log_cols = np.array([s.transform == "log" for s in params])
+        box = [i for i, s in enumerate(params) if isinstance(s.prior, LogUniform | Uniform)]
+        self.box = np.array(box, dtype=np.intp)
+        self.lo = np.array([params[i].prior.lower for i in box])
+        self.hi = np.array([params[i].prior.upper for i in box])
+        self.const = float(sum(-math.log(math.log(p.upper / p.lower)) if isinstance(p, LogUniform)
+                               else -math.log(p.upper - p.lower) for p in (params[i].prior for i in box)))
+        self.other = [i for i in range(len(params)) if i not in set(box)]
+
+    def __call__(self, z) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, log prior in sampling space)`` for sampling-space points ``z (W, k)``."""
+        x = z.copy()
+        with np.errstate(over="ignore", invalid="ignore"):
+            x[:, self.log_cols] = np.exp(z[:, self.log_cols])
+            xb = x[:, self.box]
+            inside = np.all((xb >= self.lo) & (xb <= self.hi), axis=1)
+            lp = np.where(inside, self.const, -np.inf)
+            for i in self.other:
+                lp = lp + self.params[i].log_prior_z(z[:, i])
+        return x, np.where(np.isnan(lp), -np.inf, lp)
+
+
 class SamplingSpaceDensity:
     """Posterior densities in sampling space for any likelihood with ``params`` (a ParamSet
     carrying the priors) and ``__call__(theta (..., k)) -> total log-likelihood``; shared by
     :class:`Likelihood` and the joint added-mass likelihood."""
 
+    @functools.cached_property
+    def _box_prior(self) -> _BoxPrior:
+        return _BoxPrior(self.params)
+
     def log_prob_z(self, z) -> tuple[np.ndarray, np.ndarray]:
         """``(log posterior, log likelihood)`` at sampling-space points ``z`` of shape ``(W, k)``.
 
         The log posterior is unnormalised and in sampling space (prior with its log-Jacobian, plus
-        likelihood); both are ``-inf`` outside the prior support, never NaN. The likelihood is
-        only evaluated where the prior is positive.
+        likelihood, as ``params.log_prior_z`` and ``params.from_z`` define them); both are ``-inf``
+        outside the prior support, never NaN. The likelihood is only evaluated where the prior is
+        positive.
         """
         z = np.atleast_2d(np.asarray(z, float))
-        lp = self.params.log_prior_z(z)
+        x, lp = self._box_prior(z)
         post = np.full(z.shape[0], -np.inf)
         ll = np.full(z.shape[0], -np.inf)
         ok = np.isfinite(lp)
-        if np.any(ok):
-            ll[ok] = self(self.params.from_z(z[ok]))
+        if np.all(ok):
+            ll = np.asarray(self(x), float)
+            post = np.where(np.isfinite(ll), lp + ll, -np.inf)
+        elif np.any(ok):
+            ll[ok] = self(x[ok])
             post[ok] = np.where(np.isfinite(ll[ok]), lp[ok] + ll[ok], -np.inf)
         return post, ll
 
@@ -143,6 +192,8 @@ class Likelihood(SamplingSpaceDensity):
         w = np.ones(self.meas.n_points) if self.meas.weights is None else self.meas.weights
         object.__setattr__(self, "_absY", np.abs(self.meas.Y))
         object.__setattr__(self, "_w2", np.asarray(w, float) ** 2)
+        object.__setattr__(self, "_plan", JwPlan.build(self.model, self.meas.omega))
+        object.__setattr__(self, "_noise", GaussianNoiseSums(self.meas.Y, self._w2))
 
     @property
     def sample_nu(self) -> bool:
@@ -184,11 +235,27 @@ class Likelihood(SamplingSpaceDensity):
         b = np.asarray(sigma_abs, float)[..., None]
         return np.sqrt((a * a + b * b) / self._w2)
 
+    def model_admittance(self, theta_model) -> np.ndarray:
+        """The model's ``Y(jω)`` [S] at the measured frequencies for model parameters ``(..., k_model)``
+        (through the fast path when the model has one: :mod:`bayes_emt.inference.fastpath`)."""
+        with np.errstate(all="ignore"):
+            if self._plan is not None:
+                return self._plan.admittance(theta_model)
+            return self.model.admittance(self.meas.omega, theta_model)
+
     def residuals(self, theta):
         """Complex ``Y_model − Y_meas`` [S], shape ``(..., F)``."""
-        th = self.split(theta)[0]
+        return self.model_admittance(self.split(theta)[0]) - self.meas.Y
+
+    def scaled_squared_residuals(self, theta_model) -> np.ndarray:
+        """``|Y_model − Y_meas|² w_k²/|Y_meas|²`` per frequency for model parameters ``(W, k_model)``:
+        what the Gaussian total needs (:mod:`bayes_emt.inference.noise`), ``(W, F)``."""
+        th = np.asarray(theta_model, float)
+        if self._plan is not None:
+            return self._plan.scaled_squared_residuals(th, self.meas.Y, self._noise.scale)
         with np.errstate(all="ignore"):
-            return self.model.admittance(self.meas.omega, th) - self.meas.Y
+            r = self.model.admittance(self.meas.omega, th) - self.meas.Y
+            return (r.real**2 + r.imag**2) * self._noise.scale**2
 
     def normalised_residuals(self, theta):
         """Complex ``(Y_model − Y_meas)/σ_k`` (real and imaginary parts ~ N(0, 1) under the
@@ -229,8 +296,23 @@ class Likelihood(SamplingSpaceDensity):
 
     def __call__(self, theta) -> np.ndarray:
         """Total log-likelihood [nats], shape ``theta.shape[:-1]`` (dynesty's ``loglike`` with
-        ``params.prior_transform`` as its ``prior_transform``)."""
-        return np.sum(self.pointwise(theta), axis=-1)
+        ``params.prior_transform`` as its ``prior_transform``); ``-inf`` where not finite.
+
+        Equal to ``pointwise(theta).sum(-1)``; the Gaussian total is computed without per-point
+        logarithms (:mod:`bayes_emt.inference.noise`) from the fast path's scaled residuals.
+        """
+        if self.kind != "gaussian":
+            return np.sum(self.pointwise(theta), axis=-1)
+        theta = np.asarray(theta, float)
+        lead = theta.shape[:-1]
+        flat = theta.reshape(-1, theta.shape[-1])
+        th, srel, sabs, _ = self.split(flat)
+        if self._plan is not None:
+            e = self._plan.scaled_squared_residuals(th, self.meas.Y, self._noise.scale,
+                                                    out=self._plan.scratch((th.shape[0], self.n_points)))
+        else:
+            e = self.scaled_squared_residuals(th)
+        return self._noise.total(e, srel, sabs).reshape(lead)
 
     def identity(self) -> dict:
         """What a checkpoint must match to be resumed by this likelihood (data by SHA-256)."""

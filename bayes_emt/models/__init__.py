@@ -2,7 +2,7 @@
 (``term``, ``catalogue`` for the paper's, ``augmentations`` for SPEC §7's), the registry, the
 model composed from terms, specs (``UD+winding_capacitance``) and the Foster form."""
 
-from .model import Loop, Model
+from .model import JwForm, Loop, Model
 from .rational import BESSEL_SECTIONS, Foster, foster_form
 from .registry import (
            AUGMENTATIONS,
@@ -16,7 +16,8 @@ from .registry import (
 from .spec import DEFAULT_N_TURNS, DEFAULT_RINGS, build_model, model_from_dict, parse_model_spec
 from .term import CoilStart, FosterPart, StartContext, Term
 
-__all__ = ["Model", "Loop", "Term", "CoilStart", "FosterPart", "StartContext", "TERMS", "AUGMENTATIONS",
+__all__ = ["Model", "Loop", "JwForm",
+           "Term", "CoilStart", "FosterPart", "StartContext", "TERMS", "AUGMENTATIONS",
            "BASE_MODELS", "MODEL_NAMES", "make_term", "term_from_dict", "catalogue_entries", "build_model",
            "parse_model_spec", "model_from_dict", "DEFAULT_N_TURNS", "DEFAULT_RINGS", "Foster", "foster_form",
            "BESSEL_SECTIONS"]

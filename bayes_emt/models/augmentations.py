@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
+from . import terms as T
 from .term import FosterPart, StartContext, Term, col, specs
 
 __all__ = ["WindingCapacitance", "SecondResonance", "EnclosurePort", "SuspensionCreep", "ThermalDrift",
@@ -73,6 +74,9 @@ class WindingCapacitance(Term):
     def evaluate(self, s, v, other):
         return s * col(v, 0)
 
+    def jw_rational(self, v):
+        return T.inductance_polynomials(v[:, 0])  # the admittance Cp s
+
     def start(self, ctx):
         prior = self.params["Cp"].prior
         top = _top(ctx)
@@ -102,6 +106,9 @@ class SecondResonance(Term):
     def evaluate(self, s, v, other):
         z, w, p = col(v, 0), col(v, 1), col(v, 2)
         return p * p * s / (s * s + 2.0 * z * w * s + w * w)
+
+    def jw_rational(self, v):
+        return T.motional_polynomials(v[:, 0], v[:, 1], v[:, 2])  # the same form as eq. 47's branch
 
     def start(self, ctx):
         pz, pw, pp = (self.params[n].prior for n in ("zeta2", "omega2", "phi2"))
@@ -320,6 +327,9 @@ class LR2(Term):
         L, R = col(v, 0), col(v, 1)
         return R * L * s / (R + L * s)
 
+    def jw_rational(self, v):
+        return T.lossy_inductance_polynomials(v[:, 0], v[:, 1])  # model II's form
+
     def foster(self, v, sections):
         return FosterPart(L=np.array([v[0]]), tau=np.array([v[0] / v[1]]))
 
@@ -358,6 +368,9 @@ class LeadImpedance(Term):
 
     def evaluate(self, s, v, other):
         return col(v, 0) + col(v, 1) * s
+
+    def jw_rational(self, v):
+        return np.stack([v[:, 0], v[:, 1]], axis=-1), np.ones((v.shape[0], 1))
 
     def foster(self, v, sections):
         return FosterPart(R=float(v[0]), G=float(v[1]))

@@ -45,6 +45,9 @@ class Motional(Term):
         """The motional *impedance* [Ω] (the model turns it into an admittance when modifiers act)."""
         return T.motional_impedance(s, col(v, 0), col(v, 1), col(v, 2))
 
+    def jw_rational(self, v):
+        return T.motional_polynomials(v[:, 0], v[:, 1], v[:, 2])
+
 
 @dataclass(frozen=True)
 class Resistance(Term):
@@ -60,6 +63,9 @@ class Resistance(Term):
 
     def evaluate(self, s, v, other):
         return col(v, 0) + 0 * s
+
+    def jw_rational(self, v):
+        return T.resistance_polynomials(v[:, 0])
 
     def foster(self, v, sections):
         return FosterPart(R=float(v[0]))
@@ -85,6 +91,9 @@ class Inductance(Term):
 
     def evaluate(self, s, v, other):
         return T.inductance(s, col(v, 0))
+
+    def jw_rational(self, v):
+        return T.inductance_polynomials(v[:, 0])
 
     def foster(self, v, sections):
         return FosterPart(G=float(v[0]))
@@ -121,6 +130,9 @@ class LossyInductance(Term):
 
     def evaluate(self, s, v, other):
         return T.lossy_inductance(s, col(v, 0), col(v, 1))
+
+    def jw_rational(self, v):
+        return T.lossy_inductance_polynomials(v[:, 0], v[:, 1])
 
     def foster(self, v, sections):
         return FosterPart(L=np.array([v[0]]), tau=np.array([v[0] / v[1]]))
@@ -172,6 +184,9 @@ class BesselEddy(Term):
 
     def evaluate(self, s, v, other):
         return T.bessel_eddy(s, col(v, 0), col(v, 1))
+
+    def jw_bessel(self, v):
+        return v[:, 0], v[:, 1]
 
     def foster(self, v, sections):
         L, tau, tail, E = bessel_sections(float(v[0]), float(v[1]), sections)
@@ -228,6 +243,11 @@ class RingLadder(_Rings):
         n = self.n_rings
         return T.ring_ladder(s, v[:, 0], v[:, 1 : n + 1], v[:, n + 1 :], self.n_turns)
 
+    def jw_rational(self, v):
+        """The ladder's continued fraction as a polynomial pair (``terms.ladder_polynomials``)."""
+        n = self.n_rings
+        return T.ladder_polynomials(v[:, 0], v[:, 1 : n + 1], v[:, n + 1 :], self.n_turns)
+
     def foster(self, v, sections):
         n = self.n_rings
         gap, Lk, tau = T.ring_ladder_modes(np.asarray(v[0]), v[1 : n + 1], v[n + 1 :], self.n_turns)
@@ -265,6 +285,10 @@ class UniformRings(_Rings):
     def evaluate(self, s, v, other):
         Pg, P, R = self._rings(v)
         return T.ring_ladder(s, Pg, P, R, self.n_turns)
+
+    def jw_rational(self, v):
+        Pg, P, R = self._rings(v)
+        return T.ladder_polynomials(Pg, P, R, self.n_turns)
 
     def foster(self, v, sections):
         Pg, P, R = T.uniform_rings(v[0], v[1], v[2], self.n_rings, self.n_turns)

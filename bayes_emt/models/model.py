@@ -26,7 +26,7 @@ from . import terms as T
 from .registry import BASE_MODELS
 from .term import Term
 
-__all__ = ["Model", "Loop"]
+__all__ = ["Model", "Loop", "JwForm"]
 
 
 @dataclass(frozen=True)
@@ -50,6 +50,24 @@ class Loop:
     phi: np.ndarray
     z_series: np.ndarray
     y_parallel: np.ndarray
+
+
+@dataclass(frozen=True)
+class JwForm:
+    """A model's measured admittance on ``s = jω`` for ``W`` parameter sets, from its terms' fast
+    kernels (:meth:`Model.jw_form`):
+
+        Y(s) = den(s) / (num(s) + den(s) Σ_i β_i sqrt(s) I1(sqrt(α_i s))/I0(sqrt(α_i s)))
+
+    ``num``, ``den`` : polynomial coefficients ``(W, d + 1)`` (lowest power first): without
+    parallel terms ``num/den`` is the rational part of the series impedance [Ω]; with them (and then
+    no Bessel term) ``den/num`` is the whole admittance [S].
+    ``bessel`` : ``((alpha (W,) [s], beta (W,) [Ω s^½]), ...)``, one pair per Bessel series term.
+    """
+
+    num: np.ndarray
+    den: np.ndarray
+    bessel: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -167,6 +185,43 @@ class Model:
         """``{"spec", "label", "rings", "n_turns", "terms", "parameters"}``: what rebuilds it."""
         return {"spec": self.spec, "label": self.label, "rings": self.rings, "n_turns": self.n_turns,
                 "terms": [t.to_dict() for t in self.terms], "parameters": self.params.to_dict()}
+
+    # ---- fast kernels on s = jω ------------------------------------------------------------------
+    def jw_form(self, theta) -> JwForm | None:
+        """The admittance as :class:`JwForm` for parameter sets ``theta (W, k)``, composed from the
+        terms' :meth:`~bayes_emt.models.term.Term.jw_rational` and
+        :meth:`~bayes_emt.models.term.Term.jw_bessel`; ``None`` when some term offers neither, or
+        its stage does not compose into that form (stiffness and motional-parallel modifiers, a
+        measurement factor, a Bessel kernel anywhere but in series, or parallel terms beside a
+        Bessel kernel). Stages compose as in the module docstring: the motional impedance plus the
+        series terms summed as one polynomial pair ``Z = num/den``; parallel admittances ``p/q``
+        folded in as ``Y = (den q + p num)/(num q)``."""
+        flat = np.asarray(theta, float)
+        if flat.ndim != 2 or flat.shape[1] != self.ndim:
+            raise ValueError(f"model {self.label} jw_form takes (W, {self.ndim}) parameter sets, "
+                             f"got {flat.shape}")
+        z = par = None
+        bessel = []
+        for t, sl in zip(self.terms, self._slices, strict=True):
+            if t.stage not in ("motional", "series", "parallel"):
+                return None
+            v = flat[:, sl]
+            pair = t.jw_rational(v)
+            if pair is None:
+                b = t.jw_bessel(v) if t.stage == "series" else None
+                if b is None:
+                    return None
+                bessel.append(b)
+            elif t.stage == "parallel":
+                par = pair if par is None else T.add_rational(par, pair)
+            else:
+                z = pair if z is None else T.add_rational(z, pair)
+        if par is not None:
+            if bessel:
+                return None
+            y_num, y_den = T.add_rational((z[1], z[0]), par)  # den/num + p/q as one pair
+            z = (y_den, y_num)
+        return JwForm(z[0], z[1], tuple(bessel))
 
     # ---- evaluation ------------------------------------------------------------------------------
     def _prepare(self, theta):

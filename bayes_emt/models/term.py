@@ -14,6 +14,11 @@ A :class:`Term` is a frozen record of its parameter specs (with priors) and its 
   augmentation proposes starting values from the base fit's residual in the band where it acts
   (:meth:`Term.start`);
 * **its rational (Foster) form** where it has one (:meth:`Term.foster`);
+* **its fast kernel on** ``s = jω`` where it has one (optional): :meth:`Term.jw_rational`, what
+  :meth:`Term.evaluate` returns as a polynomial pair in ``s``, or :meth:`Term.jw_bessel`, the
+  parameters of model III's Bessel kernel; a model all of whose terms offer one is evaluated by
+  the likelihood's fast path (:meth:`~bayes_emt.models.model.Model.jw_form`), any other by
+  :meth:`Term.evaluate`;
 * **its serialised form** (:meth:`Term.to_dict`, :func:`~bayes_emt.models.registry.term_from_dict`);
 * for reports: a one-line physical description, its typical signature in the data, and the
   discrepancy-physics id it belongs to (``eddy_current`` for the coil terms).
@@ -210,6 +215,22 @@ class Term:
         """The term configured for data at ``omega`` [rad/s] (a sweep-order term needs the sweep's
         ends); most terms need nothing and return themselves."""
         return self
+
+    # ---- fast kernels on s = jω (optional) ---------------------------------------------------------
+    def jw_rational(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """What :meth:`evaluate` returns, as a polynomial pair ``(num, den)`` in ``s`` (coefficients
+        lowest power first, each ``(P, d + 1)``, value ``num(s)/den(s)`` in the unit of
+        :meth:`evaluate`) for parameter blocks ``v (P, k_term)``; ``None`` when the term has no such
+        form (then a model holding it is evaluated through :meth:`evaluate`). A non-physical
+        parameter set may give NaN coefficients, never raise."""
+        return None
+
+    def jw_bessel(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(alpha (P,) [s], beta (P,) [Ω s^½])`` when :meth:`evaluate` is model III's kernel
+        ``β sqrt(s) I1(sqrt(α s))/I0(sqrt(α s))`` [Ω] for parameter blocks ``v (P, k_term)``
+        (evaluated on ``s = jω`` from the table of :func:`~bayes_emt.models.terms.bessel_eddy_jw`);
+        ``None`` otherwise."""
+        return None
 
     # ---- realisation and starts -----------------------------------------------------------------
     def foster(self, v: np.ndarray, sections: int) -> FosterPart | None:
