@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._json import strict_json
 from ..inference.likelihood import (
     Likelihood,
     LikelihoodKind,
@@ -44,7 +45,7 @@ from ..inference.posterior import _LOG_LIK_CHUNK, DERIVED, Posterior
 from ..measurement import Measurement
 from ..models import Model
 from ..params import ParamSet
-from .fit import PHYSICAL_NAMES, AddedMassResult, JointModel, _finite, fit_added_mass
+from .fit import PHYSICAL_NAMES, AddedMassResult, JointModel, fit_added_mass
 
 __all__ = ["AddedMassLikelihood", "AddedMassPosterior", "sample_added_mass", "RUNS"]
 
@@ -218,7 +219,7 @@ class AddedMassPosterior(Posterior):
         rec.update({"delta_m": self.likelihood.delta_m,
                     "sources": [self.likelihood.base.source, self.likelihood.loaded.source],
                     "physical": {k: rec["parameters"][k] for k in PHYSICAL_NAMES},
-                    "joint_fit": None if self.fit is None else _finite(dict(self.fit))})
+                    "joint_fit": None if self.fit is None else strict_json(dict(self.fit))})
         return rec
 
     def _attrs(self) -> dict:
@@ -227,7 +228,7 @@ class AddedMassPosterior(Posterior):
                 "delta_m_kg": float(lik.delta_m), "source": lik.base.source,
                 "source_loaded": lik.loaded.source,
                 "measurement_meta": lik.base.meta_json(), "measurement_meta_loaded": lik.loaded.meta_json(),
-                "joint_fit": json.dumps(None if self.fit is None else _finite(dict(self.fit)))}
+                "joint_fit": json.dumps(None if self.fit is None else strict_json(dict(self.fit)))}
 
     def to_datatree(self):
         """ArviZ ``DataTree`` as :meth:`Posterior.to_datatree`, with each run's data on its own
