@@ -99,27 +99,43 @@ class BridgeResult:
 
 
 class _Proposal:
-    """Multivariate normal or Student-t (``df``) fitted to draws."""
+    """Multivariate normal or Student-t (``df``) fitted to draws.
+
+    Fitted in standardised coordinates ``u = (x − mean)/sd``: posterior draws of a transducer model
+    span scales from 1e-12 to 1e4 in sampling space (a noise floor the data do not bound spreads
+    over decades), so the raw covariance can be too ill-conditioned for scipy's positive-definite
+    check (condition ≈ 1e11 seen on NL(5)); the correlation matrix is not, and its eigenvalues are
+    floored at 1e-9 of the largest. ``logpdf`` carries the Jacobian ``−Σ log sd``.
+    """
 
     def __init__(self, draws: np.ndarray, kind: str, df: float = 5.0):
         self.kind, self.df = kind, df
+        draws = np.atleast_2d(draws)
         self.mean = draws.mean(axis=0)
-        cov = np.atleast_2d(np.cov(draws, rowvar=False))
+        sd = draws.std(axis=0, ddof=1)
+        self.sd = np.where(sd > 0, sd, 1.0)
+        self._log_jac = float(np.sum(np.log(self.sd)))
+        u = (draws - self.mean) / self.sd
+        cov = np.atleast_2d(np.cov(u, rowvar=False))
         if kind == "t":
             cov = cov * (df - 2) / df  # the t's covariance is scale · df/(df − 2)
-        k = cov.shape[0]
-        cov = 0.5 * (cov + cov.T) + 1e-12 * np.trace(cov) / k * np.eye(k)
-        self.cov = cov
+        w, V = np.linalg.eigh(0.5 * (cov + cov.T))
+        w = np.maximum(w, 1e-9 * max(float(w.max()), 1e-300))
+        cov = (V * w) @ V.T
+        self.cov = 0.5 * (cov + cov.T)
+        zero = np.zeros(self.mean.size)
         if kind == "normal":
-            self.dist = stats.multivariate_normal(self.mean, cov)
+            self.dist = stats.multivariate_normal(zero, self.cov, allow_singular=True)
         else:
-            self.dist = stats.multivariate_t(self.mean, cov, df=df)
+            self.dist = stats.multivariate_t(zero, self.cov, df=df, allow_singular=True)
 
     def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        return np.atleast_2d(self.dist.rvs(size=n, random_state=rng)).reshape(n, -1)
+        u = np.atleast_2d(self.dist.rvs(size=n, random_state=rng)).reshape(n, -1)
+        return self.mean + self.sd * u
 
     def logpdf(self, x: np.ndarray) -> np.ndarray:
-        return np.atleast_1d(self.dist.logpdf(x))
+        u = (np.atleast_2d(x) - self.mean) / self.sd
+        return np.atleast_1d(self.dist.logpdf(u)) - self._log_jac
 
 
 def _iterate(l1: np.ndarray, l2: np.ndarray, n1_eff: float, tol: float, max_iter: int):
