@@ -13,7 +13,7 @@ import math
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+from jinja2 import ChainableUndefined, Environment, PackageLoader, select_autoescape
 
 from .._atomic import atomic_write_text
 from . import layout as L
@@ -27,9 +27,10 @@ TWO_PI = 2.0 * math.pi
 
 
 def fmt_quantity(x, unit: str = "", spec: str = ".4g") -> str:
-    """``x`` formatted by ``spec`` followed by ``unit`` (``–`` when missing or not finite)."""
+    """``x`` formatted by ``spec`` followed by ``unit`` (``–`` when missing or not finite; a word
+    such as ``"unstable"`` is shown as it is)."""
     if not finite(x):
-        return "–" if x is None or isinstance(x, str | bool) else str(x)
+        return x if isinstance(x, str) and x else "–"
     text = format(x, spec)
     return f"{text} {unit}".strip() if unit not in ("", "1") else text
 
@@ -59,13 +60,13 @@ def _band(band_hz, band_rad=None) -> str:
 
 def _unit(u) -> str:
     """Display form of the units the JSON files carry."""
-    table = {"ohm": "Ω", "1": "", "N/A/kg^.5": "N/(A kg½)", "N/(A kg^0.5)": "N/(A kg½)"}
+    table = {"ohm": "Ω", "N/A/kg^.5": "N/(A kg½)", "N/(A kg^0.5)": "N/(A kg½)"}
     return table.get(u, u or "")
 
 
 def _environment() -> Environment:
     env = Environment(loader=PackageLoader("bayes_emt.report", "templates"),
-                      autoescape=select_autoescape(["html", "j2"]), undefined=StrictUndefined,
+                      autoescape=select_autoescape(["html", "j2"]), undefined=ChainableUndefined,
                       trim_blocks=True, lstrip_blocks=True)
     env.filters.update(q=fmt_quantity, pm=_pm, omega=_omega, band=_band, unit=_unit)
     env.tests["number"] = finite

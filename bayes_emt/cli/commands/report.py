@@ -16,6 +16,7 @@ EPILOG = """examples:
   bayes-emt demo --quick --out demo_run        # writes demo_run/report.html itself
   bayes-emt report demo_run                    # rebuild demo_run/report.html
   bayes-emt report demo_run --out /tmp/r.html  # write it elsewhere
+  bayes-emt report demo_run --screenshot shot.png   # and check it renders: headless Chromium screenshot
 """
 
 
@@ -25,6 +26,10 @@ def register(sub) -> None:
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run_dir", metavar="RUN_DIR", help="run folder (as demo --out writes)")
     p.add_argument("--out", default=None, metavar="HTML", help="report file (default RUN_DIR/report.html)")
+    p.add_argument("--screenshot", default=None, metavar="PNG",
+                   help="also render the report in headless Chromium and save a screenshot here")
+    p.add_argument("--width", type=int, default=1200, help="screenshot width [CSS px] (default 1200)")
+    p.add_argument("--height", type=int, default=3000, help="screenshot height [CSS px] (default 3000)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.add_argument("--verbose", action="store_true", help="also list the sections and what was not run")
     p.set_defaults(func=run)
@@ -51,4 +56,15 @@ def run(args) -> int:
             print(f"  {s['title']}: " + ("rendered" if s["ran"] else s["absent"]))
     if not args.quiet:
         print(f"wrote {path.resolve()}")
+    if args.screenshot:
+        from ...report.browser import BrowserError, screenshot
+
+        if Path(args.screenshot).suffix.lower() != ".png":
+            raise ValueError(f"--screenshot {args.screenshot}: must be a .png file")
+        try:
+            shot = screenshot(path, args.screenshot, width=args.width, height=args.height)
+        except BrowserError as exc:
+            raise ValueError(f"--screenshot: {exc}") from None
+        if not args.quiet:
+            print(f"wrote {shot} (headless Chromium, {args.width} x {args.height} px)")
     return 0
