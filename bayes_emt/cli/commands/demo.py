@@ -220,11 +220,11 @@ def _fits(d: _Demo, meas, cfg, truth) -> dict:
                                title=f"{meas.source}: relative residuals of every fit"),
                 d.out / "residuals.png", dpi=100)
     d.step("fit", "ran", f"{len(fits)} models", time.perf_counter() - t_all)
-    if truth and "NL" in fits:
-        nl = fits["NL"]
-        bad = [n for n, v in nl.parameters.items() if n in truth and nl.stderr[n] > 0
-               and abs(v - truth[n]) > 4 * nl.stderr[n]]
-        d.say("NL(5) against the truth it was simulated from: "
+    gen = meas.meta.get("written_meta", {}).get("model")
+    for fit in (f for f in fits.values() if truth and f.model.spec == gen):
+        bad = [n for n, v in fit.parameters.items() if n in truth and fit.stderr[n] > 0
+               and abs(v - truth[n]) > 4 * fit.stderr[n]]
+        d.say(f"{fit.model.label} (the generating model) against the truth it was simulated from: "
               + ("every parameter within 4 standard errors" if not bad
                  else f"off by > 4 s.e.: {', '.join(bad)}"))
     return fits
