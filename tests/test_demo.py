@@ -6,10 +6,10 @@ say so and exit 1. Convergence itself is the slow test
 
 import json
 import warnings
-from html import escape as html_escape
 
 import numpy as np
 import pytest
+from markupsafe import escape as html_escape
 
 from bayes_emt.cli import main
 from bayes_emt.errors import ConvergenceWarning
@@ -116,3 +116,46 @@ def test_demo_report_states_the_missing_features_and_renders_in_chromium(demo, t
     dom = dump_dom(out / "report.html")
     n_figs = html.count('<img src="data:image/png;base64,')
     assert n_figs >= 5 and dom.count('src="data:image/png;base64,') == n_figs
+
+
+def test_a_failing_feature_step_is_recorded_and_the_rest_of_the_demo_goes_on(tmp_path, monkeypatch):
+    """The robust shunt (issue 12) is called through ``bayes-emt shunt --posterior``; when it fails
+    (here: made to raise as a mis-merged build would), the step is recorded as failed with a
+    one-line reason and a warning, never a traceback, and the report says so."""
+    from types import SimpleNamespace
+
+    from bayes_emt.cli.commands import demo, shunt
+    from bayes_emt.report import render_report
+
+    def broken(args):
+        raise AttributeError("'Model' object has no attribute 'name'\nsecond line")
+
+    def register(sub):  # the issue-12 command line, as the robust-shunt branch defines it
+        p = sub.add_parser("shunt")
+        for opt in ("--posterior", "--params", "--draws", "--seed", "--json", "--plot"):
+            p.add_argument(opt)
+        p.set_defaults(func=broken)
+
+    monkeypatch.setattr(demo, "_available", lambda module: True)
+    monkeypatch.setattr(shunt, "register", register)
+    d = demo._Demo(SimpleNamespace(quiet=True, verbose=False, out=str(tmp_path), seed=0))
+    demo._robust(d, tmp_path / "posterior.nc", "NL", demo.QUICK)
+    (step,) = d.steps
+    assert step["name"] == "robust_shunt" and step["status"] == "failed"
+    assert step["detail"].endswith("AttributeError: 'Model' object has no attribute 'name'")
+    assert d.warnings == ["robust shunt failed: AttributeError: 'Model' object has no attribute 'name'"]
+    (tmp_path / "run.json").write_text(json.dumps({"steps": d.steps, "warnings": d.warnings}))
+    html = render_report(tmp_path)
+    assert '<section id="sec-robust" class="not-run">' in html
+    assert html_escape("robust shunt failed: AttributeError: 'Model' object has no attribute 'name'") in html
+
+
+def test_a_command_without_the_feature_options_is_a_failed_step_not_an_exit(tmp_path, monkeypatch):
+    from types import SimpleNamespace
+
+    from bayes_emt.cli.commands import demo
+
+    monkeypatch.setattr(demo, "_available", lambda module: True)  # but this build's shunt lacks --posterior
+    d = demo._Demo(SimpleNamespace(quiet=True, verbose=False, out=str(tmp_path), seed=0))
+    demo._robust(d, tmp_path / "posterior.nc", "NL", demo.QUICK)
+    assert d.steps[0]["status"] == "failed" and "does not take these options" in d.steps[0]["detail"]

@@ -109,7 +109,13 @@ class _Demo:
         sub = p.add_subparsers(dest="command")
         module.register(sub)
         name = next(iter(sub.choices))
-        args = p.parse_args([name, *argv])
+        err = io.StringIO()
+        try:
+            with contextlib.redirect_stderr(err):
+                args = p.parse_args([name, *argv])
+        except SystemExit:
+            last = (err.getvalue().strip().splitlines() or ["?"])[-1]
+            raise ValueError(f"this build's `{name}` command does not take these options ({last})") from None
         if self.args.verbose:
             return int(args.func(args) or 0)
         buf = io.StringIO()
@@ -392,9 +398,10 @@ def _robust(d: _Demo, post_nc, preferred, cfg) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             rc = d.invoke(shunt_cmd, argv)
-    except (ValueError, KeyError, OSError, ArithmeticError) as exc:
-        d.step("robust_shunt", "failed", f"bayes-emt shunt {' '.join(argv)}: {exc}", time.perf_counter() - t)
-        d.warnings.append(f"robust shunt failed: {exc}")
+    except Exception as exc:  # noqa: BLE001 - a feature step that fails must not lose the rest of the run
+        msg = _one_line(exc)
+        d.step("robust_shunt", "failed", f"bayes-emt shunt {' '.join(argv)}: {msg}", time.perf_counter() - t)
+        d.warnings.append(f"robust shunt failed: {msg}")
         return
     _print_robust(d)
     d.step("robust_shunt", "ran", f"{cfg['draws']} draws" + ("" if rc == 0 else "; no robust shunt found"),
@@ -408,12 +415,15 @@ def _print_robust(d: _Demo) -> None:
     if not p.is_file():
         return
     rec = json.loads(p.read_text())
+    def num(x, spec):
+        return "-" if not isinstance(x, int | float) else format(x, spec)
+
     for name in ("nominal", "robust"):
         s = rec.get(name) or {}
         att = s.get("attenuation_db") or {}
-        d.say(f"  {name}: Rs = {s.get('Rs', math.nan):.5f} ohm, Cs = {s.get('Cs', math.nan):.4g} F, "
-              f"attenuation median {att.get('median')} dB (worst 5 %: {att.get('q95')} dB), "
-              f"P(unstable) {s.get('p_unstable')}")
+        d.say(f"  {name}: Rs = {num(s.get('Rs'), '.5f')} ohm, Cs = {num(s.get('Cs'), '.4g')} F, attenuation "
+              f"median {num(att.get('median'), '.3f')} dB (worst 5 %: {num(att.get('q95'), '.3f')} dB), "
+              f"P(unstable) {num(s.get('p_unstable'), '.3g')}")
 
 
 def _diagnose(d: _Demo, meas, path: Path) -> None:
@@ -439,9 +449,11 @@ def _diagnose(d: _Demo, meas, path: Path) -> None:
                 warnings.simplefilter("ignore")
                 d.invoke(diagnose_cmd, argv)
             d.step("diagnose", "ran", str(meas.source), time.perf_counter() - t)
-        except (ValueError, KeyError, OSError, ArithmeticError) as exc:
-            d.step("diagnose", "failed", f"bayes-emt diagnose: {exc}", time.perf_counter() - t)
-            d.warnings.append(f"diagnosis failed: {exc}")
+        except Exception as exc:  # noqa: BLE001 - a feature step that fails must not lose the rest of the run
+            msg = _one_line(exc)
+            d.step("diagnose", "failed", f"bayes-emt diagnose {' '.join(argv)}: {msg}",
+                   time.perf_counter() - t)
+            d.warnings.append(f"diagnosis failed: {msg}")
     else:
         d.step("diagnose", "unavailable", "discrepancy discovery (issue 13, bayes-emt diagnose) is not in "
                "this build; the concealed recording's residuals are shown without flagged bands")
@@ -465,6 +477,11 @@ def _diagnose(d: _Demo, meas, path: Path) -> None:
                                title=f"{meas.source}: residuals of the NL(5) fit"
                                      + ("; flagged bands shaded" if bands else "")),
                 d.out / "diagnosis_residuals.png", dpi=100)
+
+
+def _one_line(exc: BaseException) -> str:
+    first = (str(exc).strip().splitlines() or [""])[0]
+    return f"{type(exc).__name__}: {first}" if first else type(exc).__name__
 
 
 def _progress(d: _Demo, items, desc: str):
