@@ -51,6 +51,12 @@ def test_quick_demo_runs_the_chain_and_says_what_it_cut(demo):
     assert cmp["best"] == "NL"
     post = json.loads((out / "posterior.json").read_text())
     assert post["model"] == "NL" and post["converged"] is False and post["n_steps"] == 120
+    # issue 9: every fit carries its warnings; the adequate NL(5) fit none, model I (no eddy
+    # currents) model_inadequate; the posterior's JSON carries the NL fit's, plus not_converged
+    assert all(isinstance(f["warnings"], list) for f in fits.values())
+    assert nl["warnings"] == [] and "model_inadequate" in [w["code"] for w in fits["I"]["warnings"]]
+    assert [w["code"] for w in post["warnings"]] == ["not_converged"]
+    assert "WARNING [model_inadequate]" in text
     # SPEC §5: the NL design attenuates by -24.7 dB (here from the fitted, not the printed, parameters)
     shunts = json.loads((out / "shunts.json").read_text())
     assert shunts["NL"]["evaluated_on_NL"]["attenuation_db"] == pytest.approx(-24.7, abs=0.1)

@@ -8,7 +8,8 @@ consistent with one set of shared parameters.
 
 from __future__ import annotations
 
-from ._common import add_data_args, add_model_args, model_from_args, print_table
+from ..paths import check_outputs
+from ._common import add_data_args, add_model_args, finite_float, model_from_args, print_table
 
 
 def register(sub) -> None:
@@ -16,7 +17,7 @@ def register(sub) -> None:
                        description=__doc__.split("\n\n", 1)[1])
     p.add_argument("base", help="recording without the added mass")
     p.add_argument("loaded", help="recording with the added mass")
-    p.add_argument("--delta-m", type=float, required=True,
+    p.add_argument("--delta-m", type=finite_float, required=True,
                    help="mass added in LOADED [kg] (negative: removed)")
     add_model_args(p)
     add_data_args(p)
@@ -29,6 +30,7 @@ def run(args) -> int:
     from ...io import read_measurement
     from ...io.paramfile import write_json
 
+    check_outputs([("--json", args.json)], [("BASE", args.base), ("LOADED", args.loaded)])
     opts = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity}
     base = read_measurement(args.base, **opts).select(args.omega_min, args.omega_max)
     loaded = read_measurement(args.loaded, **opts).select(args.omega_min, args.omega_max)

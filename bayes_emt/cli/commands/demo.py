@@ -28,7 +28,8 @@ import time
 import warnings
 from pathlib import Path
 
-from ._common import print_table
+from ..paths import check_outputs
+from ._common import int_at_least, print_table, print_warnings, seed
 
 EPILOG = """examples:
   bayes-emt demo --quick                 # about 2 min: fewer models, short chains (says what it cut)
@@ -42,6 +43,11 @@ FULL = {"models": ("I", "II", "III", "UD", "NL", "UL"), "hankel": True, "methods
         "max_steps": 20000, "screen_steps": 500, "draws": 1000}
 QUICK = {"models": ("I", "II", "NL"), "hankel": False, "methods": ("laplace", "bridge"), "max_steps": 300,
          "screen_steps": 0, "draws": 200}
+#: what the demo writes into its --out folder (besides fit_<MODEL>.json, evidence_runs/, diagnosis/)
+OUTPUTS = ("run.json", "fits.json", "hankel.json", "comparison.json", "evidence.png", "posterior.nc",
+           "posterior.json", "posterior_bode.png", "posterior_corner.png", "residuals.png", "shunts.json",
+           "robust_shunt.json", "shunt_robust_gain.png", "shunt_robust_distributions.png",
+           "shunt_robust_boundary.png", "diagnosis.json", "diagnosis_residuals.png", "report.html")
 #: models whose least-squares residual exceeds this multiple of the best one's get a short chain only
 SCREEN_FACTOR = 3.0
 FULL_CUTS = (
@@ -71,8 +77,9 @@ def register(sub) -> None:
     p.add_argument("--data", default=None, help="measurement file instead of the bundled paper_bench.csv")
     p.add_argument("--concealed", default=None, metavar="FILE",
                    help="recording to diagnose instead of the bundled concealed_bench.csv")
-    p.add_argument("--seed", type=int, default=0, help="seed of every stochastic step (default 0)")
-    p.add_argument("--max-steps", type=int, default=None,
+    p.add_argument("--seed", type=seed, default=0,
+                   help="seed of every stochastic step, a non-negative integer (default 0)")
+    p.add_argument("--max-steps", type=int_at_least(1), default=None,
                    help="emcee step budget per model (default 20000; --quick 300)")
     p.add_argument("--quiet", action="store_true", help="no progress bars or tables; errors and the "
                    "report's path only")
@@ -149,16 +156,14 @@ def run(args) -> int:
     from ...io import read_measurement
     from ...io.datasets import concealed_bench_path, load_concealed_bench, load_paper_bench
 
-    if args.max_steps is not None and args.max_steps < 1:
-        raise ValueError(f"--max-steps must be a positive number of steps, got {args.max_steps}")
     cfg = dict(QUICK if args.quick else FULL)
     if args.max_steps is not None:
         cfg["max_steps"] = args.max_steps
         cfg["screen_steps"] = min(cfg["screen_steps"], args.max_steps)
     d = _Demo(args)
     out = d.out
-    if out.exists() and not out.is_dir():
-        raise FileExistsError(f"--out {out}: exists and is not a folder")
+    check_outputs(inputs=[("--data", args.data), ("--concealed", args.concealed)],
+                  folders=[("--out", out, OUTPUTS)])
     out.mkdir(parents=True, exist_ok=True)
     meas = read_measurement(args.data) if args.data else load_paper_bench()
     concealed_path = Path(args.concealed) if args.concealed else concealed_bench_path()
@@ -181,7 +186,7 @@ def run(args) -> int:
     fits = _fits(d, meas, cfg, truth)
     _hankel(d, meas, cfg)
     preferred, evidence_nc = _evidence(d, meas, fits, cfg)
-    post_nc = _posterior(d, evidence_nc, preferred)
+    post_nc = _posterior(d, evidence_nc, preferred, fits[preferred].warnings if preferred in fits else ())
     _shunts(d, fits, preferred)
     _robust(d, post_nc, preferred, cfg)
     _diagnose(d, concealed, concealed_path)
@@ -229,6 +234,10 @@ def _fits(d: _Demo, meas, cfg, truth) -> dict:
     if not d.args.quiet:
         print_table(rows, ("model", "rms rel. resid. [%]", "zeta [1]", "omega0 [rad/s]",
                            "phi [N/(A kg^.5)]", "R0 [ohm]", "time [s]"))
+        for fit in fits.values():
+            if fit.warnings:
+                print(f"{fit.model.label}:")
+                print_warnings(fit.warnings, indent="  ")
     write_json(d.out / "fits.json", {k: f.to_json_dict() for k, f in fits.items()})
     for k, f in fits.items():
         write_json(d.out / f"fit_{k}.json", f.to_json_dict())
@@ -329,8 +338,10 @@ def _evidence(d: _Demo, meas, fits, cfg) -> tuple[str, Path | None]:
     return best, post_nc
 
 
-def _posterior(d: _Demo, nc: Path | None, preferred: str) -> Path | None:
-    """The preferred model's posterior (the emcee run its evidence used): summary, netCDF, figures."""
+def _posterior(d: _Demo, nc: Path | None, preferred: str, fit_warnings=()) -> Path | None:
+    """The preferred model's posterior (the emcee run its evidence used): summary, netCDF, figures;
+    its JSON carries the preferred fit's warnings (the walkers start from that fit) and
+    ``not_converged`` when the chain missed its rule."""
     import shutil
 
     from ...api import read_posterior
@@ -349,7 +360,10 @@ def _posterior(d: _Demo, nc: Path | None, preferred: str) -> Path | None:
     d.say(f"{state}: {post.n_steps} steps x {post.n_walkers} walkers, tau_max {max(post.tau):.0f}")
     shutil.copyfile(nc, d.out / "posterior.nc.tmp")
     (d.out / "posterior.nc.tmp").replace(d.out / "posterior.nc")
-    write_json(d.out / "posterior.json", post.to_json_dict())
+    warns = list(fit_warnings)
+    if not post.converged:
+        warns.append({"code": "not_converged", "message": post.message})
+    write_json(d.out / "posterior.json", {**post.to_json_dict(), "warnings": warns})
     save_figure(plot_bode_bands(post), d.out / "posterior_bode.png", dpi=100)
     save_figure(plot_corner(post, names=corner_names(post)), d.out / "posterior_corner.png", dpi=80)
     d.step("sample", "ran", f"{post.model.label}: {state}", time.perf_counter() - t)

@@ -8,7 +8,8 @@ the data's band folded, shown as 0) and chooses n at the sharpest drop
 
 from __future__ import annotations
 
-from ._common import add_data_args, print_table
+from ..paths import check_outputs
+from ._common import add_data_args, int_at_least, positive_float, print_table
 
 
 def register(sub) -> None:
@@ -16,8 +17,9 @@ def register(sub) -> None:
                        description=__doc__.split("\n\n", 1)[1])
     p.add_argument("data", help="measurement file")
     add_data_args(p)
-    p.add_argument("--max-rings", type=int, default=7, help="rings of the over-sized NL fit (default 7)")
-    p.add_argument("--n-turns", type=float, default=480.0, help="coil turns N (default 480)")
+    p.add_argument("--max-rings", type=int_at_least(2), default=7,
+                   help="rings of the over-sized NL fit (default 7)")
+    p.add_argument("--n-turns", type=positive_float, default=480.0, help="coil turns N (default 480)")
     p.add_argument("--json", default=None, help="write the result as JSON here")
     p.set_defaults(func=run)
 
@@ -27,8 +29,7 @@ def run(args) -> int:
     from ...io import read_measurement
     from ...io.paramfile import write_json
 
-    if args.max_rings < 2:
-        raise ValueError(f"--max-rings must be at least 2, got {args.max_rings}")
+    check_outputs([("--json", args.json)], [("DATA", args.data)])
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
                             quantity=args.quantity).select(args.omega_min, args.omega_max)
     rc = select_rings(meas, args.max_rings, n_turns=args.n_turns)
