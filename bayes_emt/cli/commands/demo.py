@@ -189,7 +189,7 @@ def run(args) -> int:
     post_nc = _posterior(d, evidence_nc, preferred, fits[preferred].warnings if preferred in fits else ())
     _shunts(d, fits, preferred)
     _robust(d, post_nc, preferred, cfg)
-    _diagnose(d, concealed, concealed_path)
+    _diagnose(d, concealed, concealed_path, preferred)
 
     run_rec.update(steps=d.steps, warnings=d.warnings, total_seconds=time.perf_counter() - d.t0,
                    preferred_model=preferred)
@@ -442,12 +442,14 @@ def _print_robust(d: _Demo) -> None:
               f"P(unstable) {num(s.get('p_unstable'), '.3g')}")
 
 
-def _diagnose(d: _Demo, meas, path: Path) -> None:
-    """Diagnose the concealed-effect recording and draw its residuals with the flagged bands."""
+def _diagnose(d: _Demo, meas, path: Path, model: str) -> None:
+    """Diagnose the concealed-effect recording, starting from ``model`` (the one the evidence
+    preferred on the main recording, the same device), and draw its residuals with the flagged
+    bands."""
     import json
 
+    from ...api import as_model
     from ...estimation.fitting import fit_admittance
-    from ...models import build_model
     from ...plotting import save_figure
     from ...plotting.residuals import plot_residuals
 
@@ -459,7 +461,7 @@ def _diagnose(d: _Demo, meas, path: Path) -> None:
 
         folder = d.out / "diagnosis"
         folder.mkdir(exist_ok=True)
-        argv = [str(path), "--json", str(diag_json), "--plot", str(folder)]
+        argv = [str(path), "--model", model, "--json", str(diag_json), "--plot", str(folder)]
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -488,9 +490,9 @@ def _diagnose(d: _Demo, meas, path: Path) -> None:
             d.say("  no significant mismatch found")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        fit = fit_admittance(meas, build_model("NL"))
-    save_figure(plot_residuals(meas, {"NL(5) fit": (fit.model, fit.theta)}, bands_hz=bands,
-                               title=f"{meas.source}: residuals of the NL(5) fit"
+        fit = fit_admittance(meas, as_model(model))
+    save_figure(plot_residuals(meas, {f"{fit.model.label} fit": (fit.model, fit.theta)}, bands_hz=bands,
+                               title=f"{meas.source}: residuals of the {fit.model.label} fit"
                                      + ("; flagged bands shaded" if bands else "")),
                 d.out / "diagnosis_residuals.png", dpi=100)
 
