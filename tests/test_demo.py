@@ -159,9 +159,15 @@ def test_a_failing_feature_step_is_recorded_and_the_rest_of_the_demo_goes_on(tmp
 def test_a_command_without_the_feature_options_is_a_failed_step_not_an_exit(tmp_path, monkeypatch):
     from types import SimpleNamespace
 
-    from bayes_emt.cli.commands import demo
+    from bayes_emt.cli.commands import demo, shunt
 
-    monkeypatch.setattr(demo, "_available", lambda module: True)  # but this build's shunt lacks --posterior
+    def register(sub):  # a shunt command from before issue 12: no --posterior
+        p = sub.add_parser("shunt")
+        p.add_argument("--params")
+        p.set_defaults(func=lambda args: 0)
+
+    monkeypatch.setattr(demo, "_available", lambda module: True)
+    monkeypatch.setattr(shunt, "register", register)
     d = demo._Demo(SimpleNamespace(quiet=True, verbose=False, out=str(tmp_path), seed=0))
     demo._robust(d, tmp_path / "posterior.nc", "NL", demo.QUICK)
     assert d.steps[0]["status"] == "failed" and "does not take these options" in d.steps[0]["detail"]

@@ -40,9 +40,9 @@ EPILOG = """examples:
 """
 
 FULL = {"models": ("I", "II", "III", "UD", "NL", "UL"), "hankel": True, "methods": ("laplace", "bridge"),
-        "max_steps": 20000, "screen_steps": 500, "draws": 1000}
+        "max_steps": 20000, "screen_steps": 500, "draws": 1000, "loo": True, "bridge_seeds": 2}
 QUICK = {"models": ("I", "II", "NL"), "hankel": False, "methods": ("laplace", "bridge"), "max_steps": 300,
-         "screen_steps": 0, "draws": 200}
+         "screen_steps": 0, "draws": 200, "loo": False, "bridge_seeds": 1}
 #: what the demo writes into its --out folder (besides fit_<MODEL>.json, evidence_runs/, diagnosis/)
 OUTPUTS = ("run.json", "fits.json", "hankel.json", "comparison.json", "evidence.png", "posterior.nc",
            "posterior.json", "posterior_bode.png", "posterior_corner.png", "residuals.png", "shunts.json",
@@ -63,6 +63,7 @@ QUICK_CUTS = (
     "far too few to converge, so the evidence (bridge sampling on those chains), the posterior and "
     "everything drawn from it (bands, robust shunt) are flagged as not converged.",
     "--quick pushes 200 posterior draws (not 1000) through the robust shunt design.",
+    "--quick computes no PSIS-LOO and one bridge-sampling proposal seed per half-split (not two).",
 )
 
 
@@ -310,8 +311,8 @@ def _evidence(d: _Demo, meas, fits, cfg) -> tuple[str, Path | None]:
                               ([n for n in fits if n not in screened], cfg["max_steps"], "full")):
         if not group:
             continue
-        settings = CompareSettings(seed=d.args.seed, methods=cfg["methods"],
-                                   sampler=SamplerSettings(max_steps=steps))
+        settings = CompareSettings(seed=d.args.seed, methods=cfg["methods"], loo=cfg["loo"],
+                                   bridge_seeds=cfg["bridge_seeds"], sampler=SamplerSettings(max_steps=steps))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             parts.append(compare_models(meas, [(n, build_model(n)) for n in group], settings=settings,
