@@ -92,8 +92,13 @@ def run_dir(tmp_path):
         "findings": [{"physics": "second_resonance", "band_rad_s": [2300.0, 2700.0],
                       "band_hz": [366.1, 429.7],
                       "delta_log_evidence": 85.0, "chi2_band_before": 1520.0, "chi2_band_after": 98.0,
-                      "identifiable": True, "parameters": {"omega2": {"value": 2500.0, "unit": "rad/s"},
-                                                           "zeta2": 0.02},
+                      "identifiable": True,
+                      # the layout the discovery branch writes: added terms and moved parameters
+                      "parameters": {"added": {"omega2": {"value": 2500.0, "stderr": 2.3, "unit": "rad/s"},
+                                               "zeta2": {"value": 0.0161, "stderr": 0.0014, "unit": "1"}},
+                                     "moved": {"R0": {"before": 2.5593, "after": 2.5595,
+                                                      "relative_change": 7.8e-05}},
+                                     "L_extra": 1.5e-3},
                       "explanation": "a second mode at 398 Hz explains the swing around 400 Hz"}],
         "unexplained": [{"band_rad_s": [60000.0, 90000.0], "description": "a smooth phase trend"}],
         "warnings": [{"code": "w1", "message": "a diagnosis warning"}]})
@@ -118,7 +123,9 @@ def test_every_section_renders_from_its_saved_output_with_units_and_warnings_on_
     assert "366.1–429.7 Hz (2300–2700 rad/s)" in html
     assert "6e+04–9e+04 rad/s" in html  # the unexplained band, given in rad/s only, shown in both units
     assert "9549–1.432e+04 Hz" in html
-    assert "85.0 nats" in html and "2500 rad/s" in html
+    assert "85.0 nats" in html and "2500 rad/s ± 2.3 rad/s" in html and "0.0161 ± 0.0014" in html
+    assert "2.5593 Ω → 2.5595 Ω (+0.0078 %)" in html  # R0's unit from fits.json
+    assert "<th>L_extra</th>" in html
     assert "a second mode at 398 Hz explains the swing around 400 Hz" in html
     assert "-1119.42 ± 0.70" in html and "very strong" in html
     assert "<b class=\"bad\">unstable</b>" in html  # the II design evaluated on I

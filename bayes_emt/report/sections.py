@@ -140,12 +140,14 @@ def diagnosis_section(rf: RunFiles, run: dict | None) -> dict:
                         _step_note(run, "diagnose", "Not run: no diagnosis.json in this folder "
                                    "(bayes-emt diagnose DATA --json diagnosis.json)."), residuals=resid)
     findings = []
+    units = _fit_units(rf)
     for f in diag.get("findings", []):
         band_hz = f.get("band_hz")
         band_rad = f.get("band_rad_s")
         if band_hz is None and band_rad:
             band_hz = [b / TWO_PI for b in band_rad]
-        findings.append({**f, "band_hz": band_hz, "band_rad_s": band_rad})
+        findings.append({**f, "band_hz": band_hz, "band_rad_s": band_rad,
+                         "param_rows": _param_rows(f.get("parameters") or {}, units)})
     unexplained = []
     for u in diag.get("unexplained", []):
         band = u.get("band_rad_s")
@@ -153,6 +155,49 @@ def diagnosis_section(rf: RunFiles, run: dict | None) -> dict:
     return _section("diagnosis", "Discrepancy diagnosis", True, diag=diag, findings=findings,
                     unexplained=unexplained, rms=diag.get("rms_rel_residual") or {}, residuals=resid,
                     figures=figs, recording=(run or {}).get("diagnosed"))
+
+
+#: quantities a diagnosis reports that carry no unit field but are dimensionless
+_DIMENSIONLESS = {"zeta", "Qms", "Qes", "Qts", "zeta2", "zetab", "relative_change"}
+
+
+def _fit_units(rf: RunFiles) -> dict[str, str]:
+    units: dict[str, str] = {}
+    fits = rf.json(L.FITS)
+    if isinstance(fits, dict):
+        for rec in fits.values():
+            if isinstance(rec, dict):
+                units.update(rec.get("units") or {})
+    return units
+
+
+def _unit_of(name: str, entry, units: dict[str, str]) -> str:
+    if isinstance(entry, dict) and entry.get("unit"):
+        return str(entry["unit"])
+    if name in units:
+        return units[name]
+    if name.endswith("_hz"):
+        return "Hz"
+    if name.endswith("_rad_s"):
+        return "rad/s"
+    return "1" if name in _DIMENSIONLESS else ""
+
+
+def _param_rows(params: dict, units: dict[str, str], group: str = "") -> list[dict]:
+    """A diagnosis finding's ``parameters`` as flat rows ``{group, name, value, stderr, before,
+    after, relative_change, unit}``: the issue-13 schema leaves their layout open (a number, a
+    ``{value, stderr, unit}`` record, or groups of those such as ``added`` / ``moved``)."""
+    rows = []
+    for name, v in params.items():
+        if isinstance(v, dict) and not any(k in v for k in ("value", "median", "before", "after")):
+            rows += _param_rows(v, units, group=name)
+            continue
+        rec = v if isinstance(v, dict) else {"value": v}
+        rows.append({"group": group, "name": name, "unit": _unit_of(name, rec, units),
+                     "value": rec.get("value", rec.get("median")), "stderr": rec.get("stderr"),
+                     "before": rec.get("before"), "after": rec.get("after"),
+                     "relative_change": rec.get("relative_change")})
+    return rows
 
 
 def collect_sections(rf: RunFiles, run: dict | None) -> list[dict]:

@@ -63,6 +63,8 @@ QUICK_CUTS = (
     "far too few to converge, so the evidence (bridge sampling on those chains), the posterior and "
     "everything drawn from it (bands, robust shunt) are flagged as not converged.",
     "--quick pushes 200 posterior draws (not 1000) through the robust shunt design.",
+    "--quick lets the diagnosis stop after its first finding (--max-rounds 1): it does not check that "
+    "nothing else is left.",
     "--quick computes no PSIS-LOO and one bridge-sampling proposal seed per half-split (not two).",
 )
 
@@ -463,6 +465,8 @@ def _diagnose(d: _Demo, meas, path: Path, model: str) -> None:
         folder = d.out / "diagnosis"
         folder.mkdir(exist_ok=True)
         argv = [str(path), "--model", model, "--json", str(diag_json), "--plot", str(folder)]
+        if d.args.quick:
+            argv += ["--max-rounds", "1"]
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
