@@ -43,6 +43,8 @@ FULL = {"models": ("I", "II", "III", "UD", "NL", "UL"), "hankel": True, "methods
         "max_steps": 20000, "screen_steps": 500, "draws": 1000, "loo": True, "bridge_seeds": 2}
 QUICK = {"models": ("I", "II", "NL"), "hankel": False, "methods": ("laplace", "bridge"), "max_steps": 300,
          "screen_steps": 0, "draws": 200, "loo": False, "bridge_seeds": 1}
+#: steps --skip may leave out
+SKIPPABLE = ("robust_shunt", "diagnose")
 #: what the demo writes into its --out folder (besides fit_<MODEL>.json, evidence_runs/, diagnosis/)
 OUTPUTS = ("run.json", "fits.json", "hankel.json", "comparison.json", "evidence.png", "posterior.nc",
            "posterior.json", "posterior_bode.png", "posterior_corner.png", "residuals.png", "shunts.json",
@@ -84,6 +86,8 @@ def register(sub) -> None:
                    help="seed of every stochastic step, a non-negative integer (default 0)")
     p.add_argument("--max-steps", type=int_at_least(1), default=None,
                    help="emcee step budget per model (default 20000; --quick 300)")
+    p.add_argument("--skip", default=None, metavar="STEPS",
+                   help=f"comma-separated steps to leave out ({', '.join(SKIPPABLE)}); the report says so")
     p.add_argument("--quiet", action="store_true", help="no progress bars or tables; errors and the "
                    "report's path only")
     p.add_argument("--verbose", action="store_true", help="also print the sub-steps' full output")
@@ -159,6 +163,10 @@ def run(args) -> int:
     from ...io import read_measurement
     from ...io.datasets import concealed_bench_path, load_concealed_bench, load_paper_bench
 
+    skip = {x.strip() for x in (args.skip or "").split(",") if x.strip()}
+    if skip - set(SKIPPABLE):
+        raise ValueError(f"--skip {args.skip}: unknown step(s) {', '.join(sorted(skip - set(SKIPPABLE)))}; "
+                         f"choose from {', '.join(SKIPPABLE)}")
     cfg = dict(QUICK if args.quick else FULL)
     if args.max_steps is not None:
         cfg["max_steps"] = args.max_steps
@@ -191,8 +199,14 @@ def run(args) -> int:
     preferred, evidence_nc = _evidence(d, meas, fits, cfg)
     post_nc = _posterior(d, evidence_nc, preferred, fits[preferred].warnings if preferred in fits else ())
     _shunts(d, fits, preferred)
-    _robust(d, post_nc, preferred, cfg)
-    _diagnose(d, concealed, concealed_path, preferred)
+    if "robust_shunt" in skip:
+        d.step("robust_shunt", "skipped", "--skip robust_shunt was given")
+    else:
+        _robust(d, post_nc, preferred, cfg)
+    if "diagnose" in skip:
+        d.step("diagnose", "skipped", "--skip diagnose was given")
+    else:
+        _diagnose(d, concealed, concealed_path, preferred)
 
     run_rec.update(steps=d.steps, warnings=d.warnings, total_seconds=time.perf_counter() - d.t0,
                    preferred_model=preferred)
