@@ -38,7 +38,7 @@ def test_quick_demo_runs_the_chain_and_says_what_it_cut(demo):
     assert rc == 1 and "NOT CONVERGED" in text and "exit code 1" in text
     expected = {"run.json", "fits.json", "comparison.json", "evidence.png", "posterior.nc", "posterior.json",
                 "posterior_bode.png", "posterior_corner.png", "residuals.png", "shunts.json",
-                "diagnosis_residuals.png", "report.html"}
+                "robust_shunt.json", "shunt_robust_gain.png", "report.html"}
     assert {p.name for p in out.iterdir()} >= expected
     fits = json.loads((out / "fits.json").read_text())
     assert list(fits) == ["I", "II", "NL"]

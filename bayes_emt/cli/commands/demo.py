@@ -478,7 +478,8 @@ def _diagnose(d: _Demo, meas, path: Path, model: str) -> None:
 
         folder = d.out / "diagnosis"
         folder.mkdir(exist_ok=True)
-        argv = [str(path), "--model", model, "--json", str(diag_json), "--plot", str(folder)]
+        argv = [str(path), "--model", model, "--json", str(diag_json), "--plot", str(folder),
+                "--seed", str(d.args.seed)]
         if d.args.quick:
             argv += ["--max-rounds", "1"]
         try:
