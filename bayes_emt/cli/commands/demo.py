@@ -322,18 +322,30 @@ def _evidence(d: _Demo, meas, fits, cfg) -> tuple[str, Path | None]:
               else f"{m.log_evidence:.1f} +- {m.log_evidence_err:.1f}")
         d.say(f"  {m.name}: log Z = {lz} nats ({'reused' if reused else f'{m.seconds_total:.0f} s'})")
 
-    parts = []
+    parts, failed = [], []
     for group, steps, tag in ((screened, cfg["screen_steps"], "screen"),
                               ([n for n in fits if n not in screened], cfg["max_steps"], "full")):
         if not group:
             continue
         settings = CompareSettings(seed=d.args.seed, methods=cfg["methods"], loo=cfg["loo"],
                                    bridge_seeds=cfg["bridge_seeds"], sampler=SamplerSettings(max_steps=steps))
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            parts.append(compare_models(meas, [(n, build_model(n)) for n in group], settings=settings,
-                                        results=work / f"comparison_{tag}.json", workdir=work,
-                                        progress=not d.args.quiet and sys.stderr.isatty(), on_model=show))
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                parts.append(compare_models(meas, [(n, build_model(n)) for n in group], settings=settings,
+                                            results=work / f"comparison_{tag}.json", workdir=work,
+                                            progress=not d.args.quiet and sys.stderr.isatty(), on_model=show))
+        except Exception as exc:  # noqa: BLE001 - an estimator failure must not lose the run
+            msg = _one_line(exc)
+            d.warnings.append(f"evidence of {', '.join(group)} failed ({msg}): those models are missing from "
+                              "the comparison")
+            d.say(f"  evidence of {', '.join(group)} FAILED: {msg}")
+            failed += group
+    if not parts:
+        d.step("compare", "failed", "every evidence computation failed (see the warnings)",
+               time.perf_counter() - t)
+        best = min(fits, key=lambda k: fits[k].rms_rel_residual)
+        return best, _saved_posterior(work, fits[best].model.label)
     order = {n: i for i, n in enumerate(fits)}
     models = sorted((m for c in parts for m in c.models), key=lambda m: order.get(m.name, 99))
     first = parts[-1]
@@ -344,15 +356,33 @@ def _evidence(d: _Demo, meas, fits, cfg) -> tuple[str, Path | None]:
     write_json(d.out / "comparison.json", rec)
     save_figure(plot_evidence(cmp), d.out / "evidence.png", dpi=100)
     best = rec["best"] or min(fits, key=lambda k: fits[k].rms_rel_residual)
-    d.say(f"preferred: {best} ({rec['best_verdict'] or 'no verdict'})")
-    d.step("compare", "ran", f"{', '.join(cfg['methods'])} for {', '.join(fits)}", time.perf_counter() - t)
+    if failed:  # the evidence cannot rank a model it did not compute: fall back to the residuals
+        best = min(fits, key=lambda k: fits[k].rms_rel_residual)
+        d.say(f"preferred: {best} (smallest least-squares residual; the evidence of {', '.join(failed)} "
+              "failed)")
+        d.step("compare", "failed", f"evidence failed for {', '.join(failed)}; preferred model by "
+               "least-squares residual", time.perf_counter() - t)
+    else:
+        d.say(f"preferred: {best} ({rec['best_verdict'] or 'no verdict'})")
+        d.step("compare", "ran", f"{', '.join(cfg['methods'])} for {', '.join(fits)}",
+               time.perf_counter() - t)
     post_nc = None
     for m in cmp.models:
         if m.name == best:
             stem = "".join(c if c.isalnum() else "_" for c in m.label)
             cand = work / f"{stem}_{m.key[:8]}_posterior.nc"
             post_nc = cand if cand.is_file() else None
+    if best not in {m.name for m in cmp.models}:
+        post_nc = _saved_posterior(work, fits[best].model.label)
     return best, post_nc
+
+
+def _saved_posterior(work: Path, label: str) -> Path | None:
+    """The newest posterior the evidence step saved for the model ``label`` (its emcee run may have
+    finished although a later estimator failed)."""
+    stem = "".join(c if c.isalnum() else "_" for c in label)
+    found = sorted(work.glob(f"{stem}_*_posterior.nc"), key=lambda p: p.stat().st_mtime)
+    return found[-1] if found else None
 
 
 def _posterior(d: _Demo, nc: Path | None, preferred: str, fit_warnings=()) -> Path | None:
