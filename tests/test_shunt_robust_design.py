@@ -247,7 +247,7 @@ def test_fit_procedures_report_r0_as_in_issue_12(tmp_path, capsys):
     assert main(["fit", str(paper_bench_path()), "--model", "I", "--procedure", "paper",
                  "--json", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "R0 by procedure: polished 2.90" in text and "procedures disagree on R0" in text
+    assert "by procedure: R0 polished 2.90" in text and "procedures disagree on R0" in text
     rep = json.loads(out.read_text())
     assert rep["procedure"] == "paper"
     assert rep["R0_by_procedure"]["polished"] == pytest.approx(2.905, abs=1e-3)

@@ -13,6 +13,7 @@ import argparse
 import importlib
 import pkgutil
 import sys
+import time
 import warnings
 
 from ..errors import BayesEMTError
@@ -59,8 +60,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"bayes-emt: error: {exc}", file=sys.stderr)
         return 2
     warnings.showwarning = _showwarning
+    t0 = time.perf_counter()
     try:
         rc = args.func(args)
+        if getattr(args, "verbose", False):
+            print(f"bayes-emt {args.command}: finished in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     except (BayesEMTError, ValueError, KeyError, OSError) as exc:
         # OSError: FileNotFoundError, FileExistsError, IsADirectoryError, NotADirectoryError,
         # PermissionError, a full disk...: the user can act on each; say it in one line

@@ -13,7 +13,8 @@ import math
 from ...models import AUGMENTATIONS, MODEL_NAMES
 
 __all__ = ["add_data_args", "add_model_args", "print_table", "print_warnings", "seed", "int_at_least",
-           "positive_float", "finite_float", "nonnegative_float", "model_from_args", "check_model_matches"]
+           "positive_float", "finite_float", "nonnegative_float", "model_from_args", "check_model_matches",
+           "add_parser", "add_output_args", "note", "detail", "progress_of"]
 
 
 def seed(text: str) -> int:
@@ -69,6 +70,42 @@ def nonnegative_float(text: str) -> float:
     if not (math.isfinite(val) and val >= 0):
         raise argparse.ArgumentTypeError(f"must be a non-negative finite number, got {text!r}")
     return val
+
+
+def add_parser(sub, name: str, *, help: str, description: str | None, examples: str):
+    """A sub-command parser whose ``--help`` ends with worked examples (``examples`` lines, each a
+    full command line) and keeps the description's own line breaks."""
+    return sub.add_parser(name, help=help, description=description,
+                          epilog="examples:\n" + "\n".join(f"  {ln}" for ln in examples.strip().splitlines()),
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
+def add_output_args(p: argparse.ArgumentParser, *, progress: bool = False) -> None:
+    """``--quiet`` / ``--verbose`` (mutually exclusive). ``progress``: the command has progress bars
+    (shown on a terminal unless ``--quiet``)."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--quiet", action="store_true",
+                   help=("no progress bars; " if progress else "")
+                   + "print the results only (no notes, no 'wrote' lines); errors and warnings still show")
+    g.add_argument("--verbose", action="store_true",
+                   help="also print the details: settings, intermediate values and the time taken")
+
+
+def note(args, *text) -> None:
+    """Print unless ``--quiet``: context around the results (headers, notes, files written)."""
+    if not getattr(args, "quiet", False):
+        print(*text)
+
+
+def detail(args, *text) -> None:
+    """Print only with ``--verbose``."""
+    if getattr(args, "verbose", False):
+        print(*text)
+
+
+def progress_of(args) -> bool | None:
+    """The ``progress`` argument of the library calls: off with ``--quiet``, else on a terminal."""
+    return False if getattr(args, "quiet", False) else None
 
 
 def add_data_args(p: argparse.ArgumentParser) -> None:

@@ -21,13 +21,24 @@ from ..paths import check_outputs
 from ._common import (
     add_data_args,
     add_model_args,
+    add_output_args,
+    detail,
     finite_float,
     int_at_least,
     model_from_args,
+    note,
     print_table,
     print_warnings,
     seed,
 )
+
+EXAMPLES = """\
+  bayes-emt sample speaker.zma --model UD --out ud.nc --json ud.json --plot figures/
+  bayes-emt sample speaker.zma --model UD --out ud.nc --resume          (continue a stopped run)
+  bayes-emt sample speaker.zma --model NL --likelihood student --nu sample --max-steps 50000
+  bayes-emt sample free.zma --model UD --loaded with_100g.zma --delta-m 0.100 --out pair.nc
+  bayes-emt sample speaker.zma --model UD --priors priors.toml --verbose
+"""
 
 DEFAULT_NU = 4.0
 
@@ -46,7 +57,8 @@ def _nu(text: str) -> float | str:
 
 def register(sub) -> None:
     p = sub.add_parser("sample", help="posterior by emcee with convergence diagnostics (DataTree out)",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=__doc__, epilog="examples:\n" + EXAMPLES,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("data", help="measurement file")
     add_model_args(p)
     add_data_args(p)
@@ -74,7 +86,7 @@ def register(sub) -> None:
                    help="mass added in the --loaded recording [kg] (negative: removed)")
     p.add_argument("--json", default=None, metavar="OUT", help="write the summary as JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write corner, Bode-band and trace PNGs here")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_output_args(p, progress=True)
     p.set_defaults(func=run)
 
 
@@ -140,6 +152,9 @@ def run(args) -> int:
         for label, m in (("base run", meas), ("loaded run", loaded)):
             warns += [{"code": w["code"], "message": f"{label}: {w['message']}"}
                       for w in fit_admittance(m, model).warnings]
+    for spec in list(model.params) + list(noise):
+        detail(args, f"prior {spec.name:10s} {spec.prior.to_dict()} [{spec.unit}]")
+    detail(args, f"checkpoint {ckpt}, seed {args.seed}, budget {args.max_steps} steps")
     common = {"seed": args.seed, "max_steps": args.max_steps, "checkpoint": ckpt, "resume": args.resume,
               "overwrite": args.overwrite, "progress": False if args.quiet else None,
               "likelihood": args.likelihood, "nu": nu, "noise_params": noise}
@@ -157,6 +172,10 @@ def run(args) -> int:
           f"burn {post.burn}, thin {post.thin}, {post.draws.shape[0] * post.draws.shape[1]} draws kept, "
           f"acceptance {post.acceptance:.2f}, {post.wall_time:.1f} s")
     print(("CONVERGED: " if post.converged else "NOT CONVERGED: ") + post.message)
+    for v in post.history:
+        detail(args, f"check at step {v['step']}: tau_max {v['tau_max']:.0f}, "
+                     f"chain {v['n_over_tau']:.1f} tau, tau change {v['tau_change']:.3g}, "
+                     f"min ESS {v['ess_min']:.0f}")
     rows = [(r["name"], f"{r['median']:.5g}", f"{r['q05']:.5g}", f"{r['q95']:.5g}", f"{r['ess']:.0f}",
              f"{r['tau']:.0f}", r["unit"]) for r in post.summary_rows()]
     units = post.derived_units()
@@ -168,10 +187,10 @@ def run(args) -> int:
         warns.append({"code": "not_converged", "message": post.message})
     print_warnings(warns)
     post.save(out)
-    print(f"wrote {out} (ArviZ DataTree; checkpoint {ckpt})")
+    note(args, f"wrote {out} (ArviZ DataTree; checkpoint {ckpt})")
     if args.json:
         write_json(args.json, {**post.to_json_dict(), "warnings": warns})
-        print(f"wrote {args.json}")
+        note(args, f"wrote {args.json}")
     if args.plot:
         from ...plotting import save_figure
         from ...plotting.posterior import plot_bode_bands, plot_corner, plot_trace
@@ -183,5 +202,5 @@ def run(args) -> int:
             make = makers[name]
             path = folder / f"posterior_{stem}_{name}.png"
             save_figure(make(post), path, dpi=100)
-            print(f"wrote {path}")
+            note(args, f"wrote {path}")
     return 0 if post.converged else 1

@@ -17,14 +17,32 @@ import math
 from pathlib import Path
 
 from ..paths import check_outputs
-from ._common import check_model_matches, finite_float, int_at_least, positive_float, seed
+from ._common import (
+    add_output_args,
+    add_parser,
+    check_model_matches,
+    detail,
+    finite_float,
+    int_at_least,
+    note,
+    positive_float,
+    seed,
+)
+
+EXAMPLES = """\
+bayes-emt shunt --params nl_fit.json
+bayes-emt shunt --params ud_fit.json --evaluate-on nl_fit.json --json ud_shunt.json
+bayes-emt shunt --params nl_fit.json --implement --fs 5000 --delay 1 --plot figures/
+bayes-emt shunt --posterior nl.nc --params nl_fit.json --risk cvar --epsilon 1e-3 --json robust.json
+bayes-emt shunt --posterior nl.nc --posterior ud.nc --compare compare.json --plot figures/
+"""
 
 TABLE7 = {"r_in": 0.0996, "k_in": 99.23, "k_out": 0.9846, "fs": 5000.0}
 
 
 def register(sub) -> None:
-    p = sub.add_parser("shunt", help="optimal RC shunt for a parameter file, or robust over posteriors "
-                       "(SPEC §4)", description=__doc__.split("\n\n", 1)[1])
+    p = add_parser(sub, "shunt", help="optimal RC shunt for a parameter file, or robust over posteriors "
+                   "(SPEC §4)", description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
     p.add_argument("--params", default=None, metavar="P.json",
                    help='parameter file {"model", "rings"?, "parameters"} (as fit --json writes); with '
                         "--posterior: the point estimate of the nominal design")
@@ -66,6 +84,7 @@ def register(sub) -> None:
                    help="the shunt realisation's bandwidth [rad/s]: the stability constraint leaves out the "
                         "ideal loop above it (needed with a capacitance across the terminals); default: "
                         "ideal loop")
+    add_output_args(p)
     p.set_defaults(func=run)
 
 
@@ -115,7 +134,9 @@ def run(args) -> int:
     print(f"model {model.label} ({args.params}): H-infinity optimal RC shunt ({d.optimum})")
     print(f"  Rs = {d.Rs:.5f} ohm, Cs = {d.Cs:.5g} F: attenuation {d.attenuation_db:.3f} dB "
           f"(peak at {d.peak_omega:.4g} rad/s = {d.peak_omega / (2 * math.pi):.4g} Hz)")
-    print(f"  fixed-point closed form: Rs = {cf['Rs']:.5f} ohm, Cs = {cf['Cs']:.5g} F "
+    detail(args, "  parameters: " + ", ".join(f"{s.name} = {v:.5g} {s.unit}"
+                                              for s, v in zip(model.params, theta, strict=True)))
+    note(args, f"  fixed-point closed form: Rs = {cf['Rs']:.5f} ohm, Cs = {cf['Cs']:.5g} F "
           f"({cf['attenuation_db']:.3f} dB; coil at omega0: L = {cf['L_eq']:.4g} H, "
           f"R = {cf['R_eq']:.3g} ohm)")
     print("  " + _fmt_margin(d))
@@ -150,8 +171,8 @@ def run(args) -> int:
                           ("attenuation_map", plot_attenuation_map(d, model, theta))):
             path = folder / f"shunt_{model.spec}_{name}.png"  # the names checked above
             save_figure(fig, path, dpi=120)
-            print(f"  wrote {path}")
+            note(args, f"  wrote {path}")
     if args.json:
         write_json(args.json, out)
-        print(f"wrote {args.json}")
+        note(args, f"wrote {args.json}")
     return 0

@@ -9,13 +9,28 @@ from __future__ import annotations
 
 from ...io._rows import MIN_POINTS
 from ..paths import check_outputs
-from ._common import check_model_matches, int_at_least, positive_float, seed
+from ._common import (
+    add_output_args,
+    add_parser,
+    check_model_matches,
+    detail,
+    int_at_least,
+    note,
+    positive_float,
+    seed,
+)
+
+EXAMPLES = """\
+bayes-emt simulate --params nl_fit.json --out nl_sim.csv
+bayes-emt simulate --params ud.json --out ud.zma --noise 0.005 --seed 3 --points 500
+bayes-emt simulate --params ul.json --model UL --rings 20 --out ul20.csv --noise 0
+"""
 
 
 def register(sub) -> None:
-    p = sub.add_parser("simulate", help="simulate a measurement from a parameter file",
-                       description="Simulate the admittance of a model at the parameters of a JSON file "
-                                   "and write it as a measurement file.")
+    p = add_parser(sub, "simulate", help="simulate a measurement from a parameter file",
+                   description="Simulate the admittance of a model at the parameters of a JSON file "
+                               "and write it as a measurement file.", examples=EXAMPLES)
     p.add_argument("--params", required=True, help='JSON {"model", "parameters"} (as fit --json writes)')
     p.add_argument("--out", required=True, help="output file (.csv native, or .zma)")
     p.add_argument("--model", default=None, metavar="SPEC",
@@ -30,6 +45,7 @@ def register(sub) -> None:
     p.add_argument("--omega-max", type=positive_float, default=1e5, help="highest omega, rad/s (default 1e5)")
     p.add_argument("--points", type=int_at_least(MIN_POINTS, " (the readers, and so fit, refuse fewer)"),
                    default=2000, help=f"log-spaced points, at least {MIN_POINTS} (default 2000)")
+    add_output_args(p)
     p.set_defaults(func=run)
 
 
@@ -66,6 +82,8 @@ def run(args) -> int:
     write_measurement(meas, args.out)
     noise = (f"noise {100 * args.noise:g} % relative per real/imag part, seed {args.seed}" if args.noise > 0
              else "no noise")
-    print(f"wrote {args.out}: model {model.label}, {meas.n_points} log-spaced points, "
+    detail(args, "parameters: " + ", ".join(f"{s.name} = {v:.6g} {s.unit}"
+                                            for s, v in zip(model.params, theta, strict=True)))
+    note(args, f"wrote {args.out}: model {model.label}, {meas.n_points} log-spaced points, "
           f"{omega[0]:.4g}..{omega[-1]:.4g} rad/s ({meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz), {noise}")
     return 0
