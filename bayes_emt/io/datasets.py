@@ -14,10 +14,16 @@ from pathlib import Path
 from ..measurement import Measurement
 
 __all__ = ["paper_bench_path", "load_paper_bench", "PAPER_BENCH_SEED", "PAPER_BENCH_NOISE",
-           "REALDATA_FILES", "load_realdata"]
+           "concealed_bench_path", "load_concealed_bench", "CONCEALED_BENCH_SEED", "CONCEALED_BENCH_NOISE",
+           "CONCEALED_BENCH_EFFECT", "REALDATA_FILES", "load_realdata"]
 
 PAPER_BENCH_SEED = 20261122
 PAPER_BENCH_NOISE = 0.002
+CONCEALED_BENCH_SEED = 20261123
+CONCEALED_BENCH_NOISE = 0.002
+#: The effect concealed in ``concealed_bench.csv`` (SPEC §7 ``second_resonance``): a fixture mode at
+#: omega2 = 2500 rad/s (398 Hz), damping ratio 0.02, coupling 3.87 N/(A kg^0.5) (peak ~0.15 ohm).
+CONCEALED_BENCH_EFFECT = {"zeta2": 0.02, "omega2": 2500.0, "phi2": 3.87}
 
 
 def paper_bench_path() -> Path:
@@ -38,6 +44,22 @@ def load_paper_bench() -> Measurement:
     from . import read_measurement
 
     return read_measurement(paper_bench_path())
+
+
+def concealed_bench_path() -> Path:
+    """Path of the bundled concealed-effect recording: the paper's NL(5) device at Table 5 with a
+    hidden second mechanical mode (:data:`CONCEALED_BENCH_EFFECT`), 0.2 % noise, seed
+    :data:`CONCEALED_BENCH_SEED`, on the same grid as :func:`paper_bench_path`; see ``data/README.md``
+    and ``data/make_concealed_bench.py``."""
+    return Path(__file__).resolve().parent.parent / "data" / "concealed_bench.csv"
+
+
+def load_concealed_bench() -> Measurement:
+    """The concealed-effect recording as a :class:`Measurement`; ``meta["written_meta"]["truth"]``
+    holds every parameter it was simulated from, the hidden mode's included."""
+    from . import read_measurement
+
+    return read_measurement(concealed_bench_path())
 
 
 #: The real loudspeaker recordings of ``../shared/realdata`` (never copied into this repository):
