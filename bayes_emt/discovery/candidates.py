@@ -1,0 +1,72 @@
+"""Which catalogue physics (SPEC §7) could explain a located band, and the eddy-current escalation.
+
+A term is a candidate for a band when its signature acts there (relative to the mechanical
+resonance ``ω_r`` the data shows):
+
+* terms of the coil and the terminals (``eddy_current``, ``semi_inductance``, ``lr2``,
+  ``winding_capacitance``, ``lead_impedance``) act where the coil dominates: a band reaching above
+  ``3 ω_r``;
+* terms of the mechanics (``suspension_creep``, ``enclosure_port``) act around and below the
+  resonance: a band reaching below ``3 ω_r``;
+* a second mechanical mode and an instrument step can sit anywhere; a drift along the sweep order
+  (``thermal_drift``) shows in the real part wherever the base fit cannot absorb it.
+
+A term already in the model is not proposed again. ``eddy_current`` is not a term but a change of
+the coil model up the ladder ``I → II → III/UD → NL(n)`` (:func:`escalations`), the ring count of
+NL chosen by evidence among the candidates.
+"""
+
+from __future__ import annotations
+
+from ..models import AUGMENTATIONS, Model, parse_model_spec
+from .locate import Band
+
+__all__ = ["candidate_physics", "escalations", "LADDER", "COIL_PHYSICS", "MECHANICAL_PHYSICS"]
+
+#: the coil-model ladder of the eddy-current escalation, lowest first (SPEC §7)
+LADDER: tuple[str, ...] = ("I", "II", "III", "UD", "NL")
+#: NL ring counts the escalation tries (the count is then chosen by evidence)
+RING_COUNTS: tuple[int, ...] = (2, 3, 4, 5)
+
+COIL_PHYSICS = ("eddy_current", "semi_inductance", "lr2", "winding_capacitance", "lead_impedance")
+MECHANICAL_PHYSICS = ("suspension_creep", "enclosure_port")
+ANYWHERE = ("second_resonance", "measurement_artifact", "thermal_drift")
+
+
+def _rung(model: Model) -> int | None:
+    base = model.base
+    return LADDER.index(base) if base in LADDER else None
+
+
+def escalations(model: Model) -> list[Model]:
+    """The models one or more rungs up the eddy-current ladder from ``model``'s coil model, with
+    ``model``'s augmentations kept; NL at each of :data:`RING_COUNTS` (and above the current
+    count when ``model`` is NL already). Empty when the coil is not on the ladder or at the top."""
+    rung = _rung(model)
+    if rung is None:
+        return []
+    extra = "".join("+" + t.id for t in model.augmentations)
+    out = []
+    for name in LADDER[rung + 1:]:
+        if name == "NL":
+            out += [parse_model_spec(f"NL({n}){extra}") for n in RING_COUNTS]
+        else:
+            out.append(parse_model_spec(name + extra))
+    if model.base == "NL" and model.rings is not None:
+        out += [parse_model_spec(f"NL({n}){extra}") for n in RING_COUNTS if n > model.rings]
+    return out
+
+
+def candidate_physics(band: Band, model: Model, omega_r: float | None) -> list[str]:
+    """Physics ids (SPEC §7) whose signature can act in ``band``, for a model already holding
+    ``model``'s terms (module docstring); ``omega_r`` [rad/s] the resonance (``None``: every id)."""
+    present = {t.id for t in model.augmentations}
+    out = []
+    high = omega_r is None or band.hi > 3.0 * omega_r
+    low = omega_r is None or band.lo < 3.0 * omega_r
+    if high:
+        out += [p for p in COIL_PHYSICS if p != "eddy_current" or escalations(model)]
+    if low:
+        out += list(MECHANICAL_PHYSICS)
+    out += list(ANYWHERE)
+    return [p for p in out if p not in present and (p == "eddy_current" or p in AUGMENTATIONS)]
