@@ -230,7 +230,8 @@ def diagnose(meas: Measurement, model: Model | None = None, *, max_rounds: int =
             ranked = rank_candidates(meas, fit, lz, band, loc.sigma_rel, ids)
             tried.append({"round": rnd, "band_rad_s": [band.lo, band.hi], "candidates": [
                 {"physics": c.physics, "model": c.fit.model.spec, "delta_log_evidence": c.delta_log_z,
-                 "whitening": c.whitening, "identifiable": c.identifiable, "accepted": c.accepted}
+                 "whitening": c.whitening, "identifiable": c.identifiable, "accepted": c.accepted,
+                 "implausible": c.implausible}
                 for c in ranked]})
             if ranked and ranked[0].accepted:
                 accepted = (band, ranked[0])

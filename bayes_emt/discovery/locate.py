@@ -230,8 +230,9 @@ def locate_mismatch(meas: Measurement, model: Model, theta, *, alpha: float = AL
 
 def _merge(flagged, omega, thr) -> list[Band]:
     """Overlapping significant windows → bands (strongest first). A band's extent is that of its
-    narrowest significant windows when those exist beside much wider ones: a wide window that is
-    significant only because it contains a narrow mismatch does not widen the band."""
+    narrowest significant windows (up to 4x the shortest significant length in the group): a wide
+    window that is significant only because it contains a narrower mismatch does not widen the
+    band."""
     if not flagged:
         return []
     flagged.sort()
@@ -247,9 +248,8 @@ def _merge(flagged, omega, thr) -> list[Band]:
     bands = []
     for g in groups:
         best = max(g, key=lambda f: f[3])
-        # windows at most 4x the length of the strongest one set the extent
-        ref = best[1] - best[0] + 1
-        core = [f for f in g if f[1] - f[0] + 1 <= 4 * ref] or g
+        ref = min(f[1] - f[0] + 1 for f in g)
+        core = [f for f in g if f[1] - f[0] + 1 <= 4 * ref]
         lo, hi = min(f[0] for f in core), max(f[1] for f in core)
         parts = tuple(p for p in ("real", "imag") if any(f[2] == p for f in g))
         bands.append(Band(float(omega[lo]), float(omega[hi]), lo, hi, parts, best[3], thr,

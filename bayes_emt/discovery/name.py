@@ -17,8 +17,10 @@ of squared normalised residuals (both parts) in the band with the noise of the l
 (:attr:`~.locate.Location.sigma_rel`), before and after.
 
 A candidate is **accepted** when ``Δ log Z ≥`` :data:`MIN_DELTA_LOG_Z` (≥ 5 nats: "very strong" on
-Kass & Raftery's scale, :mod:`bayes_emt.evidence.scale`) *and* it removes at least
-:data:`MIN_WHITENING` of the band's excess χ². It is **identifiable** when every parameter it adds
+Kass & Raftery's scale, :mod:`bayes_emt.evidence.scale`), it removes at least
+:data:`MIN_WHITENING` of the band's structure (:attr:`Candidate.whitening`) and its fitted values
+are this physics (:meth:`~bayes_emt.models.term.Term.implausible`: a vented box's port tuned far
+from the driver's resonance is another mode). It is **identifiable** when every parameter it adds
 has a relative standard error (sampling space, from the fit's covariance) below
 :data:`MAX_REL_SE` and the term's catalogue entry does not say otherwise (lead resistance).
 """
@@ -42,7 +44,7 @@ from ..inference.likelihood import Likelihood
 from ..measurement import Measurement
 from ..models import Model, make_term
 from .candidates import escalations
-from .locate import Band
+from .locate import Band, scan_statistics
 
 __all__ = ["Candidate", "log_evidence", "max_log_likelihood", "band_chi2", "fit_candidate", "rank_candidates", "MIN_DELTA_LOG_Z",
            "MIN_WHITENING", "MAX_REL_SE"]
@@ -51,7 +53,7 @@ MIN_DELTA_LOG_Z = 5.0
 MIN_WHITENING = 0.3
 MAX_REL_SE = 0.5
 #: augmentation starts polished per candidate term
-STARTS_POLISHED = 3
+STARTS_POLISHED = 2
 
 
 @dataclass(frozen=True)
@@ -73,17 +75,23 @@ class Candidate:
     identifiable: bool
     identifiability: str
     n_band: int = 0
+    scan_before: float = 0.0
+    scan_after: float = 0.0
     added: dict = field(default_factory=dict)
+    implausible: str | None = None
 
     @property
     def whitening(self) -> float:
-        """Fraction of the band's excess χ² (over its point count) removed."""
-        excess = self.chi2_band_before - self.n_band
-        return float((self.chi2_band_before - self.chi2_band_after) / excess) if excess > 0 else 0.0
+        """Fraction of the band's structure removed: ``(T_before − T_after)/(T_before − 3)`` with ``T``
+        the largest scan statistic (:func:`~.locate.scan_statistics`, χ²₃ when white, mean 3) of the
+        windows inside the band, residuals normalised by the location's noise."""
+        excess = self.scan_before - 3.0
+        return float((self.scan_before - self.scan_after) / excess) if excess > 0 else 0.0
 
     @property
     def accepted(self) -> bool:
-        return bool(self.delta_log_z >= MIN_DELTA_LOG_Z and self.whitening >= MIN_WHITENING)
+        return bool(self.delta_log_z >= MIN_DELTA_LOG_Z and self.whitening >= MIN_WHITENING
+                    and self.implausible is None)
 
     @property
     def strength(self) -> str:
@@ -134,6 +142,19 @@ def band_chi2(meas: Measurement, model: Model, theta, band: Band, sigma_rel: flo
     return v if math.isfinite(v) else float("inf")
 
 
+def band_scan(meas: Measurement, model: Model, theta, band: Band, sigma_rel: float) -> float:
+    """Largest scan statistic of the windows lying inside ``band`` (both parts)."""
+    with np.errstate(all="ignore"):
+        rel = (model.bind(meas.omega).admittance(meas.omega, theta) - meas.Y) / np.abs(meas.Y)
+    r = np.stack([rel.real, rel.imag]) / sigma_rel
+    best = 0.0
+    for L, starts, T in scan_statistics(r):
+        inside = (starts >= band.i_lo) & (starts + L - 1 <= band.i_hi)
+        if np.any(inside):
+            best = max(best, float(np.max(T[:, inside])))
+    return best if math.isfinite(best) else float("inf")
+
+
 def _identifiable(fit: FitResult, new_names: list[str], physics: str) -> tuple[bool, str, dict]:
     model = fit.model
     se = fit.stderr
@@ -155,11 +176,20 @@ def fit_candidate(meas: Measurement, current: FitResult, physics: str, band: Ban
     ``eddy_current`` one fit per escalated coil model. Fits that fail are left out."""
     out = []
     if physics == "eddy_current":
+        # up the ladder; NL's ring count by evidence: stop once two more rings in a row lose
+        best, worse = -math.inf, 0
         for model in escalations(current.model):
             try:
-                out.append(fit_admittance(meas, model))
+                fit = fit_admittance(meas, model)
             except (FitError, ValueError):
                 continue
+            out.append(fit)
+            if model.base == "NL":
+                lz = log_evidence(meas, fit)
+                worse = worse + 1 if not lz > best else 0
+                best = max(best, lz) if math.isfinite(lz) else best
+                if worse >= 2:
+                    break
         return out
     term = make_term(physics)
     try:
@@ -181,6 +211,7 @@ def rank_candidates(meas: Measurement, current: FitResult, current_log_z: float,
     """Every candidate of ``physics_ids`` for ``band``, best first (accepted first, then by
     ``Δ log Z``)."""
     before = band_chi2(meas, current.model, current.theta, band, sigma_rel)
+    scan0 = band_scan(meas, current.model, current.theta, band, sigma_rel)
     n_band = 2 * (band.i_hi - band.i_lo + 1)
     out = []
     for physics in physics_ids:
@@ -191,7 +222,11 @@ def rank_candidates(meas: Measurement, current: FitResult, current_log_z: float,
             after = band_chi2(meas, fit.model, fit.theta, band, sigma_rel)
             new_names = [n for n in fit.model.names if n not in current.model.names]
             ident, why, added = _identifiable(fit, new_names, physics)
-            out.append(Candidate(physics, fit, lz, lz - current_log_z, before, after, ident, why, n_band, added))
+            values = fit.model.as_dict(fit.theta)
+            bad = next((w for t in fit.model.augmentations if t.id == physics
+                        and (w := t.implausible(values)) is not None), None)
+            out.append(Candidate(physics, fit, lz, lz - current_log_z, before, after, ident, why, n_band, scan0,
+                                 band_scan(meas, fit.model, fit.theta, band, sigma_rel), added, bad))
     # eddy_current: keep only its best rung (the ring count by evidence)
     best_eddy = max((c for c in out if c.physics == "eddy_current"), key=lambda c: c.log_z, default=None)
     out = [c for c in out if c.physics != "eddy_current" or c is best_eddy]
