@@ -42,8 +42,17 @@ def case(name, base, params, effects, noise, grid, seed=1, start=None, expect=No
     """A benchmark case: ``effects`` maps physics ids to their parameters (``{}`` for the eddy
     escalation, whose truth is the base model itself); ``start`` the model the diagnosis starts
     from (default ``base`` without the effects); ``expect`` the physics ids a right answer names."""
-    return {"name": name, "base": base, "params": params, "effects": effects, "noise": noise, "grid": grid,
-            "seed": seed, "start": start or base, "expect": sorted(expect if expect is not None else effects)}
+    return {
+        "name": name,
+        "base": base,
+        "params": params,
+        "effects": effects,
+        "noise": noise,
+        "grid": grid,
+        "seed": seed,
+        "start": start or base,
+        "expect": sorted(expect if expect is not None else effects),
+    }
 
 
 def cases() -> list[dict]:
@@ -54,29 +63,84 @@ def cases() -> list[dict]:
         case("null_II_0.1%", "II", II, {}, 0.001, PAPER_GRID),
         case("Cp_UD_strong", "UD", UD, {"winding_capacitance": {"Cp": 2e-8}}, 0.003, PAPER_GRID),
         case("Cp_II_near_limit", "II", II, {"winding_capacitance": {"Cp": 1.5e-8}}, 0.005, PAPER_GRID),
-        case("mode2_UD", "UD", UD, {"second_resonance": {"zeta2": 0.02, "omega2": 2000.0, "phi2": 4.9}},
-             0.002, PAPER_GRID),
-        case("mode2_speaker_near_limit", "I", SPEAKER,
-             {"second_resonance": {"zeta2": 0.03, "omega2": 2 * np.pi * 400, "phi2": 12.0}}, 0.005, SPEAKER_GRID),
-        case("vented_box_speaker", "I", SPEAKER,
-             {"enclosure_port": {"Lb": 0.02, "omegab": 2 * np.pi * 35.0, "zetab": 0.05}}, 0.003, SPEAKER_GRID),
-        case("creep_speaker", "I", SPEAKER, {"suspension_creep": {"lambda_creep": 0.06}}, 0.002, SPEAKER_GRID),
+        case(
+            "mode2_UD",
+            "UD",
+            UD,
+            {"second_resonance": {"zeta2": 0.02, "omega2": 2000.0, "phi2": 4.9}},
+            0.002,
+            PAPER_GRID,
+        ),
+        case(
+            "mode2_speaker_near_limit",
+            "I",
+            SPEAKER,
+            {"second_resonance": {"zeta2": 0.03, "omega2": 2 * np.pi * 400, "phi2": 12.0}},
+            0.005,
+            SPEAKER_GRID,
+        ),
+        case(
+            "vented_box_speaker",
+            "I",
+            SPEAKER,
+            {"enclosure_port": {"Lb": 0.02, "omegab": 2 * np.pi * 35.0, "zetab": 0.05}},
+            0.003,
+            SPEAKER_GRID,
+        ),
+        case(
+            "creep_speaker", "I", SPEAKER, {"suspension_creep": {"lambda_creep": 0.06}}, 0.002, SPEAKER_GRID
+        ),
         case("drift_UD", "UD", UD, {"thermal_drift": {"drift": 0.02}}, 0.002, PAPER_GRID),
-        case("semi_speaker", "I", SPEAKER, {"semi_inductance": {"K_semi": 0.02, "n_semi": 0.6}}, 0.005, SPEAKER_GRID),
+        case(
+            "semi_speaker",
+            "I",
+            SPEAKER,
+            {"semi_inductance": {"K_semi": 0.02, "n_semi": 0.6}},
+            0.005,
+            SPEAKER_GRID,
+        ),
         case("lr2_speaker", "I", SPEAKER, {"lr2": {"L_lr2": 3e-4, "R_lr2": 3.0}}, 0.003, SPEAKER_GRID),
         case("lead_II", "II", II, {"lead_impedance": {"Rl": 0.1, "Ll": 2e-6}}, 0.002, PAPER_GRID),
-        case("artifact_UD", "UD", UD, {"measurement_artifact": {"omegas": 3000.0, "delta_s": 0.01, "psi_s": 0.01}},
-             0.002, PAPER_GRID),
+        case(
+            "artifact_UD",
+            "UD",
+            UD,
+            {"measurement_artifact": {"omegas": 3000.0, "delta_s": 0.01, "psi_s": 0.01}},
+            0.002,
+            PAPER_GRID,
+        ),
         case("eddy_NL5_from_I", "NL", NL, {}, 0.002, PAPER_GRID, start="I", expect=["eddy_current"]),
         case("eddy_UD_from_II", "UD", UD, {}, 0.005, PAPER_GRID, start="II", expect=["eddy_current"]),
-        case("two_Cp_drift_UD", "UD", UD, {"winding_capacitance": {"Cp": 2e-8}, "thermal_drift": {"drift": 0.03}},
-             0.002, PAPER_GRID),
-        case("two_mode2_Cp_speaker", "II", SPEAKER_II,
-             {"second_resonance": {"zeta2": 0.03, "omega2": 2 * np.pi * 800, "phi2": 20.0},
-              "winding_capacitance": {"Cp": 3e-9}}, 0.003, SPEAKER_GRID),
-        case("two_artifact_mode2_II", "II", II,
-             {"measurement_artifact": {"omegas": 5000.0, "delta_s": 0.02, "psi_s": -0.02},
-              "second_resonance": {"zeta2": 0.02, "omega2": 800.0, "phi2": 3.0}}, 0.003, PAPER_GRID),
+        case(
+            "two_Cp_drift_UD",
+            "UD",
+            UD,
+            {"winding_capacitance": {"Cp": 2e-8}, "thermal_drift": {"drift": 0.03}},
+            0.002,
+            PAPER_GRID,
+        ),
+        case(
+            "two_mode2_Cp_speaker",
+            "II",
+            SPEAKER_II,
+            {
+                "second_resonance": {"zeta2": 0.03, "omega2": 2 * np.pi * 800, "phi2": 20.0},
+                "winding_capacitance": {"Cp": 3e-9},
+            },
+            0.003,
+            SPEAKER_GRID,
+        ),
+        case(
+            "two_artifact_mode2_II",
+            "II",
+            II,
+            {
+                "measurement_artifact": {"omegas": 5000.0, "delta_s": 0.02, "psi_s": -0.02},
+                "second_resonance": {"zeta2": 0.02, "omega2": 800.0, "phi2": 3.0},
+            },
+            0.003,
+            PAPER_GRID,
+        ),
     ]
 
 
@@ -90,8 +154,18 @@ def simulate_case(c, seed=None):
     vals = dict(c["params"])
     for e in c["effects"].values():
         vals.update(e)
-    return model, vals, simulate(model, vals, c["grid"], noise=c["noise"], seed=c["seed"] if seed is None else seed,
-                                 source=c["name"])
+    return (
+        model,
+        vals,
+        simulate(
+            model,
+            vals,
+            c["grid"],
+            noise=c["noise"],
+            seed=c["seed"] if seed is None else seed,
+            source=c["name"],
+        ),
+    )
 
 
 def true_bands(c, model, vals) -> dict:
@@ -125,13 +199,26 @@ def run_case(c, out: Path) -> dict:
     seconds = time.perf_counter() - t
     found = [f.physics for f in d.findings]
     bands = true_bands(c, model, vals)
-    rec = {"name": c["name"], "truth": _spec(c), "start": c["start"], "noise": c["noise"], "expect": c["expect"],
-           "found": found, "final_model": d.final_model, "seconds": seconds,
-           "right": sorted(found) == c["expect"],
-           "band_overlap": all(overlaps(f.band and [f.band.lo, f.band.hi], bands.get(f.physics))
-                               for f in d.findings if f.physics in bands),
-           "true_bands_rad_s": bands, "diagnosis": d.details(),
-           "final_parameters": d.final_fit.parameters, "true_parameters": vals}
+    rec = {
+        "name": c["name"],
+        "truth": _spec(c),
+        "start": c["start"],
+        "noise": c["noise"],
+        "expect": c["expect"],
+        "found": found,
+        "final_model": d.final_model,
+        "seconds": seconds,
+        "right": sorted(found) == c["expect"],
+        "band_overlap": all(
+            overlaps(f.band and [f.band.lo, f.band.hi], bands.get(f.physics))
+            for f in d.findings
+            if f.physics in bands
+        ),
+        "true_bands_rad_s": bands,
+        "diagnosis": d.details(),
+        "final_parameters": d.final_fit.parameters,
+        "true_parameters": vals,
+    }
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(path, json.dumps(rec, indent=1, default=float))
     return rec
@@ -147,9 +234,15 @@ def run_nulls(out: Path, n: int) -> dict:
         _, _, meas = simulate_case(c, seed=1000 + i)
         t = time.perf_counter()
         d = diagnose(meas, parse_model_spec(c["base"]), seed=i)
-        done["runs"].append({"case": c["name"], "seed": 1000 + i, "findings": [f.physics for f in d.findings],
-                             "bands": len(d.final_location.bands) if d.final_location else 0,
-                             "seconds": time.perf_counter() - t})
+        done["runs"].append(
+            {
+                "case": c["name"],
+                "seed": 1000 + i,
+                "findings": [f.physics for f in d.findings],
+                "bands": len(d.final_location.bands) if d.final_location else 0,
+                "seconds": time.perf_counter() - t,
+            }
+        )
         atomic_write_text(path, json.dumps(done, indent=1))
     return done
 
@@ -168,36 +261,73 @@ def main(argv=None) -> int:
             continue
         r = run_case(c, out)
         recs.append(r)
-        print(f"{r['name']:28s} expect {','.join(r['expect']) or '-':40s} found {','.join(r['found']) or '-':40s} "
-              f"{'RIGHT' if r['right'] else 'WRONG'} band {'ok' if r['band_overlap'] else 'MISS'} {r['seconds']:.0f} s",
-              flush=True)
+        print(
+            f"{r['name']:28s} expect {','.join(r['expect']) or '-':40s} found {','.join(r['found']) or '-':40s} "
+            f"{'RIGHT' if r['right'] else 'WRONG'} band {'ok' if r['band_overlap'] else 'MISS'} {r['seconds']:.0f} s",
+            flush=True,
+        )
     nulls = run_nulls(out, a.null_seeds) if a.null_seeds and not a.only else {"runs": []}
     effects = [(r, e) for r in recs for e in r["expect"]]
     named = sum(e in r["found"] for r, e in effects)
     extra = sum(len(set(r["found"]) - set(r["expect"])) for r in recs)
     null_cases = [r for r in recs if not r["expect"]]
     false = sum(bool(x["findings"]) for x in nulls["runs"])
-    summary = {"cases": len(recs), "effects": len(effects), "effects_named": named,
-               "effects_named_fraction": named / len(effects) if effects else None,
-               "cases_right": sum(r["right"] for r in recs), "extra_findings": extra,
-               "null_cases_with_finding": sum(bool(r["found"]) for r in null_cases),
-               "null_seeds": len(nulls["runs"]), "null_seeds_with_finding": false,
-               "band_overlap_all": all(r["band_overlap"] for r in recs),
-               "seconds_max": max((r["seconds"] for r in recs), default=None),
-               "seconds_median": float(np.median([r["seconds"] for r in recs])) if recs else None}
-    lines = ["| case | truth | start | noise | expected | found | right | band overlaps | seconds |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    summary = {
+        "cases": len(recs),
+        "effects": len(effects),
+        "effects_named": named,
+        "effects_named_fraction": named / len(effects) if effects else None,
+        "cases_right": sum(r["right"] for r in recs),
+        "extra_findings": extra,
+        "null_cases_with_finding": sum(bool(r["found"]) for r in null_cases),
+        "null_seeds": len(nulls["runs"]),
+        "null_seeds_with_finding": false,
+        "band_overlap_all": all(r["band_overlap"] for r in recs),
+        "seconds_max": max((r["seconds"] for r in recs), default=None),
+        "seconds_median": float(np.median([r["seconds"] for r in recs])) if recs else None,
+    }
+    lines = [
+        "| case | truth | start | noise | expected | found | right | band overlaps | seconds |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in recs:
-        lines.append(f"| {r['name']} | {r['truth']} | {r['start']} | {100 * r['noise']:.1f} % | "
-                     f"{', '.join(r['expect']) or '-'} | {', '.join(r['found']) or '-'} | {'yes' if r['right'] else 'NO'} | "
-                     f"{'yes' if r['band_overlap'] else 'NO'} | {r['seconds']:.0f} |")
+        lines.append(
+            f"| {r['name']} | {r['truth']} | {r['start']} | {100 * r['noise']:.1f} % | "
+            f"{', '.join(r['expect']) or '-'} | {', '.join(r['found']) or '-'} | {'yes' if r['right'] else 'NO'} | "
+            f"{'yes' if r['band_overlap'] else 'NO'} | {r['seconds']:.0f} |"
+        )
     lines.append("")
     lines.append("```\n" + json.dumps(summary, indent=1) + "\n```")
     if not a.only:
         atomic_write_text(out / "scores.md", "\n".join(lines) + "\n")
-        atomic_write_text(out / "scores.json", json.dumps({"summary": summary, "cases": [
-            {k: r[k] for k in ("name", "truth", "start", "noise", "expect", "found", "right", "band_overlap",
-                               "seconds", "final_model")} for r in recs], "null_seeds": nulls["runs"]}, indent=1))
+        atomic_write_text(
+            out / "scores.json",
+            json.dumps(
+                {
+                    "summary": summary,
+                    "cases": [
+                        {
+                            k: r[k]
+                            for k in (
+                                "name",
+                                "truth",
+                                "start",
+                                "noise",
+                                "expect",
+                                "found",
+                                "right",
+                                "band_overlap",
+                                "seconds",
+                                "final_model",
+                            )
+                        }
+                        for r in recs
+                    ],
+                    "null_seeds": nulls["runs"],
+                },
+                indent=1,
+            ),
+        )
     print("\n".join(lines))
     return 0
 

@@ -55,8 +55,14 @@ def test_a_smooth_bump_is_located_where_it_is():
     white = [_max(rng.standard_normal((2, n))) for _ in range(200)]
     assert _max(r) > np.quantile(white, 0.99)
     # the strongest window sits on the bump, in the imaginary part
-    best = max(((float(T[p, k]), p, int(st[k]), L) for L, st, T in scan_statistics(r)
-                for p in range(2) for k in range(T.shape[1])))
+    best = max(
+        (
+            (float(T[p, k]), p, int(st[k]), L)
+            for L, st, T in scan_statistics(r)
+            for p in range(2)
+            for k in range(T.shape[1])
+        )
+    )
     assert best[1] == 1 and best[2] <= 300 <= best[2] + best[3] - 1
 
 

@@ -14,5 +14,17 @@ from .locate import Band, Location, locate_mismatch
 from .name import Candidate, rank_candidates
 from .shape import residual_shape
 
-__all__ = ["candidate_physics", "escalations", "Diagnosis", "Finding", "diagnose", "preferred_base_model", "Band",
-           "Location", "locate_mismatch", "Candidate", "rank_candidates", "residual_shape"]
+__all__ = [
+    "candidate_physics",
+    "escalations",
+    "Diagnosis",
+    "Finding",
+    "diagnose",
+    "preferred_base_model",
+    "Band",
+    "Location",
+    "locate_mismatch",
+    "Candidate",
+    "rank_candidates",
+    "residual_shape",
+]

@@ -47,7 +47,7 @@ def escalations(model: Model) -> list[Model]:
         return []
     extra = "".join("+" + t.id for t in model.augmentations)
     out = []
-    for name in LADDER[rung + 1:]:
+    for name in LADDER[rung + 1 :]:
         if name == "NL":
             out += [parse_model_spec(f"NL({n}){extra}") for n in RING_COUNTS]
         else:

@@ -55,11 +55,17 @@ class Finding:
     explanation: str
 
     def to_json_dict(self) -> dict:
-        return {"physics": self.physics, "band_rad_s": [self.band.lo, self.band.hi],
-                "band_hz": [self.band.lo / (2 * math.pi), self.band.hi / (2 * math.pi)],
-                "delta_log_evidence": self.delta_log_evidence, "chi2_band_before": self.chi2_band_before,
-                "chi2_band_after": self.chi2_band_after, "identifiable": self.identifiable,
-                "parameters": self.parameters, "explanation": self.explanation}
+        return {
+            "physics": self.physics,
+            "band_rad_s": [self.band.lo, self.band.hi],
+            "band_hz": [self.band.lo / (2 * math.pi), self.band.hi / (2 * math.pi)],
+            "delta_log_evidence": self.delta_log_evidence,
+            "chi2_band_before": self.chi2_band_before,
+            "chi2_band_after": self.chi2_band_after,
+            "identifiable": self.identifiable,
+            "parameters": self.parameters,
+            "explanation": self.explanation,
+        }
 
 
 @dataclass(frozen=True)
@@ -93,27 +99,40 @@ class Diagnosis:
 
     @property
     def baseline_model(self) -> str:
-        return self.baseline_fit.model.spec
+        return self.baseline_fit.model.label
 
     @property
     def final_model(self) -> str:
-        return self.final_fit.model.spec
+        return self.final_fit.model.label
 
     def to_json_dict(self) -> dict:
         """The ``bayes-emt diagnose --json`` record (issue 13's schema)."""
-        return {"baseline_model": self.baseline_model, "final_model": self.final_model,
-                "rms_rel_residual": {"baseline": self.baseline_fit.rms_rel_residual,
-                                     "final": self.final_fit.rms_rel_residual},
-                "findings": [f.to_json_dict() for f in self.findings],
-                "unexplained": [{"band_rad_s": u["band_rad_s"], "description": u["description"]}
-                                for u in self.unexplained],
-                "warnings": list(self.warnings)}
+        return {
+            "baseline_model": self.baseline_model,
+            "final_model": self.final_model,
+            "rms_rel_residual": {
+                "baseline": self.baseline_fit.rms_rel_residual,
+                "final": self.final_fit.rms_rel_residual,
+            },
+            "findings": [f.to_json_dict() for f in self.findings],
+            "unexplained": [
+                {"band_rad_s": u["band_rad_s"], "description": u["description"]} for u in self.unexplained
+            ],
+            "warnings": list(self.warnings),
+        }
 
     def details(self) -> dict:
         """Everything behind the verdict (rounds, candidates, shapes, timings) for reports."""
-        return {**self.to_json_dict(), "source": self.source, "locations": list(self.locations),
-                "tried": list(self.tried), "unexplained_detail": list(self.unexplained), "seconds": self.seconds,
-                "baseline_parameters": self.baseline_fit.parameters, "final_parameters": self.final_fit.parameters}
+        return {
+            **self.to_json_dict(),
+            "source": self.source,
+            "locations": list(self.locations),
+            "tried": list(self.tried),
+            "unexplained_detail": list(self.unexplained),
+            "seconds": self.seconds,
+            "baseline_parameters": self.baseline_fit.parameters,
+            "final_parameters": self.final_fit.parameters,
+        }
 
 
 def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES) -> tuple[FitResult, float, dict]:
@@ -148,8 +167,11 @@ def moved_parameters(before: FitResult, after: FitResult) -> dict:
     """``{name: {"before", "after", "relative_change"}}`` of the plant parameters (R0, ζ, ω0, φ̄ and
     the derived fs [Hz], Qms = 1/(2ζ)) [SI]."""
     a, b = _mechanics(before), _mechanics(after)
-    return {k: {"before": a[k], "after": b[k], "relative_change": (b[k] - a[k]) / a[k] if a[k] else None}
-            for k in a if k in b}
+    return {
+        k: {"before": a[k], "after": b[k], "relative_change": (b[k] - a[k]) / a[k] if a[k] else None}
+        for k in a
+        if k in b
+    }
 
 
 def _fmt(v: float, unit: str) -> str:
@@ -164,23 +186,40 @@ def _fmt(v: float, unit: str) -> str:
 
 def _explain(c: Candidate, band: Band, model: Model, moved: dict) -> str:
     units = dict(zip(model.names, model.params.units, strict=True))
-    pars = ", ".join(f"{n} = {_fmt(v, units[n])} ± {_fmt(s, units[n])}" if math.isfinite(s) else
-                     f"{n} = {_fmt(v, units[n])}" for n, (v, s) in c.added.items())
-    what = c.fit.model.spec if c.physics == "eddy_current" else c.physics
+    pars = ", ".join(
+        f"{n} = {_fmt(v, units[n])} ± {_fmt(s, units[n])}"
+        if math.isfinite(s)
+        else f"{n} = {_fmt(v, units[n])}"
+        for n, (v, s) in c.added.items()
+    )
+    what = c.fit.model.label if c.physics == "eddy_current" else c.physics
     lo, hi = band.lo / (2 * math.pi), band.hi / (2 * math.pi)
-    head = (f"{what} ({pars})" if pars else what)
-    shifts = ", ".join(f"{k} {100 * d['relative_change']:+.1f} %" for k, d in moved.items()
-                       if k in ("R0", "Qms", "fs_hz", "phi") and d["relative_change"] is not None
-                       and abs(d["relative_change"]) > 0.005)
-    return (f"{head} explains the mismatch in the {'/'.join(band.parts)} part(s) between {lo:.4g} and {hi:.4g} Hz; "
-            f"log Z rises by {c.delta_log_z:.1f} nats ({c.strength}); the band's chi2 falls from "
-            f"{c.chi2_band_before:.4g} to {c.chi2_band_after:.4g} ({c.n_band} residuals); "
-            f"{'improves the fit and is determined by the data' if c.identifiable else 'improves the fit but is not determined by the data: ' + c.identifiability}"
-            + (f"; moved: {shifts}" if shifts else ""))
+    head = f"{what} ({pars})" if pars else what
+    shifts = ", ".join(
+        f"{k} {100 * d['relative_change']:+.1f} %"
+        for k, d in moved.items()
+        if k in ("R0", "Qms", "fs_hz", "phi")
+        and d["relative_change"] is not None
+        and abs(d["relative_change"]) > 0.005
+    )
+    return (
+        f"{head} explains the mismatch in the {'/'.join(band.parts)} part(s) between {lo:.4g} and {hi:.4g} Hz; "
+        f"log Z rises by {c.delta_log_z:.1f} nats ({c.strength}); the band's chi2 falls from "
+        f"{c.chi2_band_before:.4g} to {c.chi2_band_after:.4g} ({c.n_band} residuals); "
+        f"{'improves the fit and is determined by the data' if c.identifiable else 'improves the fit but is not determined by the data: ' + c.identifiability}"
+        + (f"; moved: {shifts}" if shifts else "")
+    )
 
 
-def diagnose(meas: Measurement, model: Model | None = None, *, max_rounds: int = 4, alpha: float = ALPHA,
-             seed: int = 0, progress=None) -> Diagnosis:
+def diagnose(
+    meas: Measurement,
+    model: Model | None = None,
+    *,
+    max_rounds: int = 4,
+    alpha: float = ALPHA,
+    seed: int = 0,
+    progress=None,
+) -> Diagnosis:
     """Locate, name and model what ``model`` leaves out of ``meas`` (module docstring).
 
     Parameters
@@ -199,15 +238,23 @@ def diagnose(meas: Measurement, model: Model | None = None, *, max_rounds: int =
     if model is None:
         say("choosing the base model by evidence")
         fit, lz, scores = preferred_base_model(meas)
-        say("base model " + fit.model.spec + " (log Z: " + ", ".join(f"{k} {v:.1f}" for k, v in scores.items()) + ")")
+        say(
+            "base model "
+            + fit.model.label
+            + " (log Z: "
+            + ", ".join(f"{k} {v:.1f}" for k, v in scores.items())
+            + ")"
+        )
     else:
         fit = fit_admittance(meas, model)
         lz = log_evidence(meas, fit)
     if not math.isfinite(lz):
         lz = max_log_likelihood(meas, fit)
-        warn.append(f"the Laplace evidence of the starting model {fit.model.spec} failed (a model far from the "
-                    "data); its maximum likelihood bounds it from above, so the first delta_log_evidence is a "
-                    "lower bound")
+        warn.append(
+            f"the Laplace evidence of the starting model {fit.model.label} failed (a model far from the "
+            "data); its maximum likelihood bounds it from above, so the first delta_log_evidence is a "
+            "lower bound"
+        )
     baseline = fit
     resonance = locate_resonance(meas)
     omega_r = None if resonance is None else resonance.omega
@@ -215,10 +262,10 @@ def diagnose(meas: Measurement, model: Model | None = None, *, max_rounds: int =
     loc0 = loc = None
     unexplained_bands: list[Band] = []
     for rnd in range(max_rounds + 1):
-        say(f"round {rnd}: locating the mismatch of {fit.model.spec}")
+        say(f"round {rnd}: locating the mismatch of {fit.model.label}")
         loc = locate_mismatch(meas, fit.model, fit.theta, alpha=alpha, seed=seed + rnd)
         loc0 = loc0 or loc
-        locations.append({"round": rnd, "model": fit.model.spec, **loc.to_json_dict()})
+        locations.append({"round": rnd, "model": fit.model.label, **loc.to_json_dict()})
         if not loc.bands or rnd == max_rounds:
             unexplained_bands = list(loc.bands)
             break
@@ -228,11 +275,24 @@ def diagnose(meas: Measurement, model: Model | None = None, *, max_rounds: int =
             ids = candidate_physics(band, fit.model, omega_r)
             say(f"band {band.lo:.4g}-{band.hi:.4g} rad/s: trying {', '.join(ids)}")
             ranked = rank_candidates(meas, fit, lz, band, loc.sigma_rel, ids)
-            tried.append({"round": rnd, "band_rad_s": [band.lo, band.hi], "candidates": [
-                {"physics": c.physics, "model": c.fit.model.spec, "delta_log_evidence": c.delta_log_z,
-                 "whitening": c.whitening, "identifiable": c.identifiable, "accepted": c.accepted,
-                 "implausible": c.implausible}
-                for c in ranked]})
+            tried.append(
+                {
+                    "round": rnd,
+                    "band_rad_s": [band.lo, band.hi],
+                    "candidates": [
+                        {
+                            "physics": c.physics,
+                            "model": c.fit.model.label,
+                            "delta_log_evidence": c.delta_log_z,
+                            "whitening": c.whitening,
+                            "identifiable": c.identifiable,
+                            "accepted": c.accepted,
+                            "implausible": c.implausible,
+                        }
+                        for c in ranked
+                    ],
+                }
+            )
             if ranked and ranked[0].accepted:
                 accepted = (band, ranked[0])
                 break
@@ -243,12 +303,29 @@ def diagnose(meas: Measurement, model: Model | None = None, *, max_rounds: int =
         band, c = accepted
         moved = moved_parameters(fit, c.fit)
         units = dict(zip(c.fit.model.names, c.fit.model.params.units, strict=True))
-        params = {"added": {n: {"value": v, "stderr": s if math.isfinite(s) else None, "unit": units[n]}
-                            for n, (v, s) in c.added.items()}, "moved": moved}
+        params = {
+            "added": {
+                n: {"value": v, "stderr": s if math.isfinite(s) else None, "unit": units[n]}
+                for n, (v, s) in c.added.items()
+            },
+            "moved": moved,
+        }
         term = next((t for t in c.fit.model.augmentations if t.id == c.physics), None)
-        findings.append(Finding(c.physics, band, c.delta_log_z, c.chi2_band_before, c.chi2_band_after,
-                                c.identifiable, c.identifiability, True if term is None else term.device,
-                                params, c.fit.model.spec, _explain(c, band, c.fit.model, moved)))
+        findings.append(
+            Finding(
+                c.physics,
+                band,
+                c.delta_log_z,
+                c.chi2_band_before,
+                c.chi2_band_after,
+                c.identifiable,
+                c.identifiability,
+                True if term is None else term.device,
+                params,
+                c.fit.model.label,
+                _explain(c, band, c.fit.model, moved),
+            )
+        )
         say(findings[-1].explanation)
         fit, lz = c.fit, c.log_z
     else:  # pragma: no cover - the loop always breaks
@@ -256,8 +333,15 @@ def diagnose(meas: Measurement, model: Model | None = None, *, max_rounds: int =
     unexplained = []
     for band in unexplained_bands:
         shape = residual_shape(meas, fit.model, fit.theta, band)
-        unexplained.append({"band_rad_s": [band.lo, band.hi], "band_hz": [band.lo / (2 * np.pi), band.hi / (2 * np.pi)],
-                            "parts": list(band.parts), "description": describe_shape(band, shape), "shape": shape})
+        unexplained.append(
+            {
+                "band_rad_s": [band.lo, band.hi],
+                "band_hz": [band.lo / (2 * np.pi), band.hi / (2 * np.pi)],
+                "parts": list(band.parts),
+                "description": describe_shape(band, shape),
+                "shape": shape,
+            }
+        )
     if len(findings) == max_rounds and loc is not None and loc.bands:
         warn.append(f"stopped after {max_rounds} findings with mismatch left")
     if baseline.info.get("resonance_mismatch") or fit.info.get("resonance_mismatch"):
@@ -265,5 +349,16 @@ def diagnose(meas: Measurement, model: Model | None = None, *, max_rounds: int =
     for f in findings:
         if not f.identifiable:
             warn.append(f"{f.physics}: {f.identifiability}")
-    return Diagnosis(meas.source, baseline, fit, tuple(findings), tuple(unexplained), tuple(locations), tuple(tried),
-                     tuple(warn), time.perf_counter() - t0, loc, loc0)
+    return Diagnosis(
+        meas.source,
+        baseline,
+        fit,
+        tuple(findings),
+        tuple(unexplained),
+        tuple(locations),
+        tuple(tried),
+        tuple(warn),
+        time.perf_counter() - t0,
+        loc,
+        loc0,
+    )

@@ -31,8 +31,16 @@ from scipy import stats
 from ..measurement import Measurement
 from ..models import Model
 
-__all__ = ["Band", "Location", "locate_mismatch", "noise_scale", "scan_statistics", "ljung_box", "runs_test",
-           "projected_jacobian"]
+__all__ = [
+    "Band",
+    "Location",
+    "locate_mismatch",
+    "noise_scale",
+    "scan_statistics",
+    "ljung_box",
+    "runs_test",
+    "projected_jacobian",
+]
 
 #: family-wise false-alarm probability of the scan (any false band anywhere)
 ALPHA = 0.01
@@ -62,9 +70,14 @@ class Band:
     peak_omega: float
 
     def to_json_dict(self) -> dict:
-        return {"band_rad_s": [self.lo, self.hi], "band_hz": [self.lo / (2 * np.pi), self.hi / (2 * np.pi)],
-                "parts": list(self.parts), "peak_statistic": self.peak_statistic, "threshold": self.threshold,
-                "peak_omega_rad_s": self.peak_omega}
+        return {
+            "band_rad_s": [self.lo, self.hi],
+            "band_hz": [self.lo / (2 * np.pi), self.hi / (2 * np.pi)],
+            "parts": list(self.parts),
+            "peak_statistic": self.peak_statistic,
+            "threshold": self.threshold,
+            "peak_omega_rad_s": self.peak_omega,
+        }
 
 
 @dataclass(frozen=True)
@@ -86,9 +99,15 @@ class Location:
         return bool(self.bands)
 
     def to_json_dict(self) -> dict:
-        return {"bands": [b.to_json_dict() for b in self.bands], "sigma_rel": self.sigma_rel,
-                "threshold": self.threshold, "max_statistic": self.max_statistic, "p_value": self.p_value,
-                "alpha": ALPHA, "whiteness": self.whiteness}
+        return {
+            "bands": [b.to_json_dict() for b in self.bands],
+            "sigma_rel": self.sigma_rel,
+            "threshold": self.threshold,
+            "max_statistic": self.max_statistic,
+            "p_value": self.p_value,
+            "alpha": ALPHA,
+            "whiteness": self.whiteness,
+        }
 
 
 def noise_scale(x: np.ndarray) -> np.ndarray:
@@ -146,7 +165,7 @@ def projected_jacobian(model: Model, meas: Measurement, theta, h: float = 1e-6) 
         Z[2 * i + 1, i] -= step
     with np.errstate(all="ignore"):
         Yp = model.admittance(meas.omega, model.params.from_z(Z)) / np.abs(meas.Y)
-    d = (Yp[0::2] - Yp[1::2])
+    d = Yp[0::2] - Yp[1::2]
     J = np.concatenate([d.real, d.imag], axis=1).T
     J = J[:, np.all(np.isfinite(J), axis=0)]
     J = J / np.maximum(np.linalg.norm(J, axis=0), 1e-300)
@@ -180,8 +199,15 @@ def runs_test(x: np.ndarray) -> dict:
     return {"runs": runs, "z": float(z), "p_value": float(2 * stats.norm.sf(abs(z)))}
 
 
-def locate_mismatch(meas: Measurement, model: Model, theta, *, alpha: float = ALPHA,
-                    replicates: int = REPLICATES, seed: int = 0) -> Location:
+def locate_mismatch(
+    meas: Measurement,
+    model: Model,
+    theta,
+    *,
+    alpha: float = ALPHA,
+    replicates: int = REPLICATES,
+    seed: int = 0,
+) -> Location:
     """Bands where ``model`` at ``theta`` misfits ``meas`` beyond its noise (module docstring).
 
     Parameters
@@ -193,8 +219,9 @@ def locate_mismatch(meas: Measurement, model: Model, theta, *, alpha: float = AL
     """
     model = model.bind(meas.omega)
     if meas.n_points < 4 * _MIN_WINDOW:
-        raise ValueError(f"{meas.source}: {meas.n_points} points are too few to locate a mismatch "
-                         f"(need {4 * _MIN_WINDOW})")
+        raise ValueError(
+            f"{meas.source}: {meas.n_points} points are too few to locate a mismatch (need {4 * _MIN_WINDOW})"
+        )
     with np.errstate(all="ignore"):
         rel = (model.admittance(meas.omega, np.asarray(theta, float)) - meas.Y) / np.abs(meas.Y)
     parts = np.stack([rel.real, rel.imag])
@@ -211,7 +238,7 @@ def locate_mismatch(meas: Measurement, model: Model, theta, *, alpha: float = AL
         e = e - (e @ U) @ U.T
         e = e.reshape(-1, 2, n)
         s = np.sqrt(np.mean(noise_scale(e) ** 2, axis=-1))
-        maxima[b0:b0 + e.shape[0]] = _max_stat(e / s[:, None, None]).max(axis=-1)
+        maxima[b0 : b0 + e.shape[0]] = _max_stat(e / s[:, None, None]).max(axis=-1)
     thr = float(np.quantile(maxima, 1.0 - alpha))
     scales = scan_statistics(r)
     obs_max = float(max(np.max(T) for _, _, T in scales))
@@ -223,8 +250,10 @@ def locate_mismatch(meas: Measurement, model: Model, theta, *, alpha: float = AL
             for k in np.flatnonzero(T[j] > thr):
                 flagged.append((int(starts[k]), int(starts[k] + L - 1), part, float(T[j, k])))
     bands = _merge(flagged, meas.omega, thr)
-    white = {part: {"ljung_box": ljung_box(r[j]), "runs": runs_test(r[j])}
-             for j, part in enumerate(("real", "imag"))}
+    white = {
+        part: {"ljung_box": ljung_box(r[j]), "runs": runs_test(r[j])}
+        for j, part in enumerate(("real", "imag"))
+    }
     return Location(tuple(bands), sig, thr, obs_max, p, white, r[0] + 1j * r[1])
 
 
@@ -252,7 +281,17 @@ def _merge(flagged, omega, thr) -> list[Band]:
         core = [f for f in g if f[1] - f[0] + 1 <= 4 * ref]
         lo, hi = min(f[0] for f in core), max(f[1] for f in core)
         parts = tuple(p for p in ("real", "imag") if any(f[2] == p for f in g))
-        bands.append(Band(float(omega[lo]), float(omega[hi]), lo, hi, parts, best[3], thr,
-                          float(np.sqrt(omega[best[0]] * omega[best[1]]))))
+        bands.append(
+            Band(
+                float(omega[lo]),
+                float(omega[hi]),
+                lo,
+                hi,
+                parts,
+                best[3],
+                thr,
+                float(np.sqrt(omega[best[0]] * omega[best[1]])),
+            )
+        )
     bands.sort(key=lambda b: -b.peak_statistic)
     return bands

@@ -46,8 +46,17 @@ from ..models import Model, make_term
 from .candidates import escalations
 from .locate import Band, scan_statistics
 
-__all__ = ["Candidate", "log_evidence", "max_log_likelihood", "band_chi2", "fit_candidate", "rank_candidates", "MIN_DELTA_LOG_Z",
-           "MIN_WHITENING", "MAX_REL_SE"]
+__all__ = [
+    "Candidate",
+    "log_evidence",
+    "max_log_likelihood",
+    "band_chi2",
+    "fit_candidate",
+    "rank_candidates",
+    "MIN_DELTA_LOG_Z",
+    "MIN_WHITENING",
+    "MAX_REL_SE",
+]
 
 MIN_DELTA_LOG_Z = 5.0
 MIN_WHITENING = 0.3
@@ -90,8 +99,11 @@ class Candidate:
 
     @property
     def accepted(self) -> bool:
-        return bool(self.delta_log_z >= MIN_DELTA_LOG_Z and self.whitening >= MIN_WHITENING
-                    and self.implausible is None)
+        return bool(
+            self.delta_log_z >= MIN_DELTA_LOG_Z
+            and self.whitening >= MIN_WHITENING
+            and self.implausible is None
+        )
 
     @property
     def strength(self) -> str:
@@ -118,8 +130,12 @@ def max_log_likelihood(meas: Measurement, fit: FitResult) -> float:
     current model's evidence when its Laplace screen fails (a model far from the data), so that
     ``Δ log Z`` is then a lower bound."""
     lik = Likelihood(fit.model, meas)
-    rel = float(np.sqrt(np.mean(np.abs(fit.model.admittance(meas.omega, fit.theta) - meas.Y) ** 2
-                                / np.abs(meas.Y) ** 2) / 2))
+    rel = float(
+        np.sqrt(
+            np.mean(np.abs(fit.model.admittance(meas.omega, fit.theta) - meas.Y) ** 2 / np.abs(meas.Y) ** 2)
+            / 2
+        )
+    )
     ymin = float(np.min(np.abs(meas.Y)))
 
     def nll(x):
@@ -127,9 +143,18 @@ def max_log_likelihood(meas: Measurement, fit: FitResult) -> float:
         v = float(lik(th))
         return -v if math.isfinite(v) else 1e300
 
-    best = min((optimize.minimize(nll, [math.log(rel), math.log(a * ymin)], method="Nelder-Mead",
-                                  options={"xatol": 1e-6, "fatol": 1e-6}) for a in (1e-6, 1e-2)),
-               key=lambda r: r.fun)
+    best = min(
+        (
+            optimize.minimize(
+                nll,
+                [math.log(rel), math.log(a * ymin)],
+                method="Nelder-Mead",
+                options={"xatol": 1e-6, "fatol": 1e-6},
+            )
+            for a in (1e-6, 1e-2)
+        ),
+        key=lambda r: r.fun,
+    )
     return float(-best.fun)
 
 
@@ -160,7 +185,11 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str) -> tuple[b
     se = fit.stderr
     added = {n: (float(v), float(se[n])) for n, v in model.as_dict(fit.theta).items() if n in new_names}
     if fit.cov_z is None:
-        return False, "the fit's Jacobian is rank-deficient: the data do not determine the new parameters", added
+        return (
+            False,
+            "the fit's Jacobian is rank-deficient: the data do not determine the new parameters",
+            added,
+        )
     sd_z = np.sqrt(np.clip(np.diag(fit.cov_z), 0, None))
     bad = [n for n in new_names if sd_z[model.names.index(n)] > MAX_REL_SE]
     notes = [t.identifiability for t in model.augmentations if t.id == physics and t.identifiability]
@@ -206,8 +235,14 @@ def fit_candidate(meas: Measurement, current: FitResult, physics: str, band: Ban
     return [min(ok, key=lambda f: f.chi2)] if ok else []
 
 
-def rank_candidates(meas: Measurement, current: FitResult, current_log_z: float, band: Band,
-                    sigma_rel: float, physics_ids: list[str]) -> list[Candidate]:
+def rank_candidates(
+    meas: Measurement,
+    current: FitResult,
+    current_log_z: float,
+    band: Band,
+    sigma_rel: float,
+    physics_ids: list[str],
+) -> list[Candidate]:
     """Every candidate of ``physics_ids`` for ``band``, best first (accepted first, then by
     ``Δ log Z``)."""
     before = band_chi2(meas, current.model, current.theta, band, sigma_rel)
@@ -223,10 +258,31 @@ def rank_candidates(meas: Measurement, current: FitResult, current_log_z: float,
             new_names = [n for n in fit.model.names if n not in current.model.names]
             ident, why, added = _identifiable(fit, new_names, physics)
             values = fit.model.as_dict(fit.theta)
-            bad = next((w for t in fit.model.augmentations if t.id == physics
-                        and (w := t.implausible(values)) is not None), None)
-            out.append(Candidate(physics, fit, lz, lz - current_log_z, before, after, ident, why, n_band, scan0,
-                                 band_scan(meas, fit.model, fit.theta, band, sigma_rel), added, bad))
+            bad = next(
+                (
+                    w
+                    for t in fit.model.augmentations
+                    if t.id == physics and (w := t.implausible(values)) is not None
+                ),
+                None,
+            )
+            out.append(
+                Candidate(
+                    physics,
+                    fit,
+                    lz,
+                    lz - current_log_z,
+                    before,
+                    after,
+                    ident,
+                    why,
+                    n_band,
+                    scan0,
+                    band_scan(meas, fit.model, fit.theta, band, sigma_rel),
+                    added,
+                    bad,
+                )
+            )
     # eddy_current: keep only its best rung (the ring count by evidence)
     best_eddy = max((c for c in out if c.physics == "eddy_current"), key=lambda c: c.log_z, default=None)
     out = [c for c in out if c.physics != "eddy_current" or c is best_eddy]

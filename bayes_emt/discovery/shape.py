@@ -35,7 +35,7 @@ def residual_shape(meas: Measurement, model: Model, theta, band: Band, order: in
     Ar = np.concatenate([A.real, A.imag])
     br = np.concatenate([e.real, e.imag])
     c, *_ = np.linalg.lstsq(Ar, br, rcond=None)
-    a, b = c[: order + 1], np.r_[1.0, c[order + 1:]]
+    a, b = c[: order + 1], np.r_[1.0, c[order + 1 :]]
     fit = np.polyval(a[::-1], x) / np.polyval(b[::-1], x)
     zeros = np.roots(a[::-1]) * wc if np.any(a[1:] != 0) else np.array([])
     poles = np.roots(b[::-1]) * wc
@@ -43,10 +43,14 @@ def residual_shape(meas: Measurement, model: Model, theta, band: Band, order: in
     def pairs(r):  # roots in the s-plane as [Re, Im] [rad/s]
         return [[float(z.real), float(z.imag)] for z in np.asarray(r, complex)]
 
-    return {"poles_rad_s": pairs(poles), "zeros_rad_s": pairs(zeros),
-            "rms_residual_rel": float(np.sqrt(np.mean(np.abs(e) ** 2))),
-            "rms_unexplained_rel": float(np.sqrt(np.mean(np.abs(e - fit) ** 2))),
-            "mean_real": float(np.mean(e.real)), "mean_imag": float(np.mean(e.imag))}
+    return {
+        "poles_rad_s": pairs(poles),
+        "zeros_rad_s": pairs(zeros),
+        "rms_residual_rel": float(np.sqrt(np.mean(np.abs(e) ** 2))),
+        "rms_unexplained_rel": float(np.sqrt(np.mean(np.abs(e - fit) ** 2))),
+        "mean_real": float(np.mean(e.real)),
+        "mean_imag": float(np.mean(e.imag)),
+    }
 
 
 def describe_shape(band: Band, shape: dict) -> str:
@@ -58,10 +62,14 @@ def describe_shape(band: Band, shape: dict) -> str:
         mod = float(np.hypot(re, im))
         if abs(im) > 1e-6 * mod and im > 0:
             zeta = -re / mod if mod > 0 else float("nan")
-            words.append(f"a resonance-like pole pair at {mod / (2 * np.pi):.4g} Hz (damping ratio {zeta:.2g})")
+            words.append(
+                f"a resonance-like pole pair at {mod / (2 * np.pi):.4g} Hz (damping ratio {zeta:.2g})"
+            )
         elif abs(im) <= 1e-6 * mod:
             words.append(f"a real pole at {abs(re) / (2 * np.pi):.4g} Hz")
     form = "; ".join(words) if words else "no pole in the rational fit"
-    return (f"unexplained mismatch of rms {100 * shape['rms_residual_rel']:.2g} % in {'/'.join(band.parts)} "
-            f"part(s) between {lo:.4g} and {hi:.4g} Hz ({band.lo:.4g}-{band.hi:.4g} rad/s); residual shape: "
-            f"{form}; no catalogue term explains it significantly")
+    return (
+        f"unexplained mismatch of rms {100 * shape['rms_residual_rel']:.2g} % in {'/'.join(band.parts)} "
+        f"part(s) between {lo:.4g} and {hi:.4g} Hz ({band.lo:.4g}-{band.hi:.4g} rad/s); residual shape: "
+        f"{form}; no catalogue term explains it significantly"
+    )

@@ -159,8 +159,8 @@ class EnclosurePort(Term):
         ratio = values["omegab"] / values["omega0"]
         lo, hi = self.TUNING_RANGE
         if not lo <= ratio <= hi:
-            return (f"port tuning omegab = {values['omegab']:.4g} rad/s is {ratio:.3g} x the driver's resonance "
-                    f"(a box realises {lo:g}-{hi:g} x): another mode, not a port")
+            return (f"port tuning omegab = {values['omegab']:.4g} rad/s is {ratio:.3g} x the driver's "
+                    f"resonance (a box realises {lo:g}-{hi:g} x): another mode, not a port")
         return None
 
     def start(self, ctx):

@@ -7,7 +7,9 @@ __all__ = ["plot_residuals", "plot_bode_overlay"]
 
 def _bands(ax, diagnosis):
     for f in diagnosis.findings:
-        ax.axvspan(f.band.lo / 6.283185307179586, f.band.hi / 6.283185307179586, color="tab:green", alpha=0.12)
+        ax.axvspan(
+            f.band.lo / 6.283185307179586, f.band.hi / 6.283185307179586, color="tab:green", alpha=0.12
+        )
     for u in diagnosis.unexplained:
         lo, hi = u["band_hz"]
         ax.axvspan(lo, hi, color="tab:red", alpha=0.12)
@@ -34,8 +36,10 @@ def plot_residuals(diagnosis, meas, ax=None):
     else:
         fig = ax[0].figure
     f = meas.f_hz
-    for fit, label, color in ((diagnosis.baseline_fit, f"start: {diagnosis.baseline_model}", "tab:gray"),
-                              (diagnosis.final_fit, f"final: {diagnosis.final_model}", "tab:blue")):
+    for fit, label, color in (
+        (diagnosis.baseline_fit, f"start: {diagnosis.baseline_model}", "tab:gray"),
+        (diagnosis.final_fit, f"final: {diagnosis.final_model}", "tab:blue"),
+    ):
         m = fit.model.bind(meas.omega)
         with np.errstate(all="ignore"):
             r = (m.admittance(meas.omega, fit.theta) - meas.Y) / np.abs(meas.Y)
@@ -71,8 +75,10 @@ def plot_bode_overlay(diagnosis, meas, ax=None):
     Z = 1.0 / meas.Y
     ax[0].plot(f, np.abs(Z), ".", ms=2, color="k", label="data")
     ax[1].plot(f, np.degrees(np.angle(Z)), ".", ms=2, color="k", label="data")
-    for fit, label, color in ((diagnosis.baseline_fit, f"start: {diagnosis.baseline_model}", "tab:gray"),
-                              (diagnosis.final_fit, f"final: {diagnosis.final_model}", "tab:blue")):
+    for fit, label, color in (
+        (diagnosis.baseline_fit, f"start: {diagnosis.baseline_model}", "tab:gray"),
+        (diagnosis.final_fit, f"final: {diagnosis.final_model}", "tab:blue"),
+    ):
         Zm = fit.model.bind(meas.omega).impedance(meas.omega, fit.theta)
         ax[0].plot(f, np.abs(Zm), lw=1, color=color, label=label)
         ax[1].plot(f, np.degrees(np.angle(Zm)), lw=1, color=color, label=label)

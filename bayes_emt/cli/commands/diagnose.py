@@ -20,17 +20,27 @@ from ._common import add_data_args
 
 
 def register(sub) -> None:
-    p = sub.add_parser("diagnose", help="locate a model-data mismatch, name the missing physics, model it",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "diagnose",
+        help="locate a model-data mismatch, name the missing physics, model it",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("data", help="measurement file (.zma, CSV/TSV with header, .s1p)")
-    p.add_argument("--model", default=None, metavar="SPEC",
-                   help="starting model spec (default: the base model the evidence prefers)")
+    p.add_argument(
+        "--model",
+        default=None,
+        metavar="SPEC",
+        help="starting model spec (default: the base model the evidence prefers)",
+    )
     p.add_argument("--rings", type=int, default=None, help="rings for NL/UL (default 5)")
     p.add_argument("--n-turns", type=float, default=480.0, help="coil turns N (NL/UL; default 480)")
     add_data_args(p)
     p.add_argument("--json", default=None, metavar="OUT", help="write the diagnosis as JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write residual and Bode figures here")
-    p.add_argument("--seed", type=int, default=0, help="seed of the scan's calibration replicates (default 0)")
+    p.add_argument(
+        "--seed", type=int, default=0, help="seed of the scan's calibration replicates (default 0)"
+    )
     p.add_argument("--max-rounds", type=int, default=4, help="at most this many findings (default 4)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=run)
@@ -47,19 +57,31 @@ def run(args) -> int:
     for opt, path in (("--json", args.json), ("--plot", args.plot)):
         if path is not None and Path(path).resolve() == Path(args.data).resolve():
             raise ValueError(f"{opt} {path}: would overwrite the input data")
-    meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
-                            quantity=args.quantity).select(args.omega_min, args.omega_max)
+    meas = read_measurement(
+        args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit, quantity=args.quantity
+    ).select(args.omega_min, args.omega_max)
     model = model_from_args(args) if args.model else None
-    d = diagnose(meas, model, seed=args.seed, max_rounds=args.max_rounds,
-                 progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)))
-    print(f"{meas.source}: {meas.n_points} points, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz; "
-          f"{d.seconds:.0f} s")
-    print(f"start {d.baseline_model} (rms relative residual {100 * d.baseline_fit.rms_rel_residual:.3g} %) -> "
-          f"final {d.final_model} ({100 * d.final_fit.rms_rel_residual:.3g} %)")
+    d = diagnose(
+        meas,
+        model,
+        seed=args.seed,
+        max_rounds=args.max_rounds,
+        progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)),
+    )
+    print(
+        f"{meas.source}: {meas.n_points} points, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz; "
+        f"{d.seconds:.0f} s"
+    )
+    print(
+        f"start {d.baseline_model} (rms relative residual {100 * d.baseline_fit.rms_rel_residual:.3g} %) -> "
+        f"final {d.final_model} ({100 * d.final_fit.rms_rel_residual:.3g} %)"
+    )
     if not d.findings and not d.unexplained:
         print("no significant mismatch")
     for i, f in enumerate(d.findings, 1):
-        print(f"finding {i}: {f.physics} [{'device' if f.device else 'instrument/session'}] — {f.explanation}")
+        print(
+            f"finding {i}: {f.physics} [{'device' if f.device else 'instrument/session'}] — {f.explanation}"
+        )
     for u in d.unexplained:
         print("unexplained: " + u["description"])
     for w in d.warnings:
@@ -73,6 +95,9 @@ def run(args) -> int:
 
         folder = Path(args.plot)
         folder.mkdir(parents=True, exist_ok=True)
-        for name, fig in (("residuals.png", plot_residuals(d, meas)), ("bode.png", plot_bode_overlay(d, meas))):
+        for name, fig in (
+            ("residuals.png", plot_residuals(d, meas)),
+            ("bode.png", plot_bode_overlay(d, meas)),
+        ):
             print(f"wrote {save_figure(fig, folder / name)}")
     return 1 if d.warnings else 0
