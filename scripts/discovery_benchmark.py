@@ -262,8 +262,9 @@ def main(argv=None) -> int:
         r = run_case(c, out)
         recs.append(r)
         print(
-            f"{r['name']:28s} expect {','.join(r['expect']) or '-':40s} found {','.join(r['found']) or '-':40s} "
-            f"{'RIGHT' if r['right'] else 'WRONG'} band {'ok' if r['band_overlap'] else 'MISS'} {r['seconds']:.0f} s",
+            f"{r['name']:28s} expect {','.join(r['expect']) or '-':40s} "
+            f"found {','.join(r['found']) or '-':40s} {'RIGHT' if r['right'] else 'WRONG'} "
+            f"band {'ok' if r['band_overlap'] else 'MISS'} {r['seconds']:.0f} s",
             flush=True,
         )
     nulls = run_nulls(out, a.null_seeds) if a.null_seeds and not a.only else {"runs": []}
@@ -293,7 +294,8 @@ def main(argv=None) -> int:
     for r in recs:
         lines.append(
             f"| {r['name']} | {r['truth']} | {r['start']} | {100 * r['noise']:.1f} % | "
-            f"{', '.join(r['expect']) or '-'} | {', '.join(r['found']) or '-'} | {'yes' if r['right'] else 'NO'} | "
+            f"{', '.join(r['expect']) or '-'} | {', '.join(r['found']) or '-'} | "
+            f"{'yes' if r['right'] else 'NO'} | "
             f"{'yes' if r['band_overlap'] else 'NO'} | {r['seconds']:.0f} |"
         )
     lines.append("")

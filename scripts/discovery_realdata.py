@@ -2,7 +2,8 @@
 
 One command::
 
-    OMP_NUM_THREADS=1 .venv/bin/python scripts/discovery_realdata.py [--out scripts/results/discovery_realdata]
+    OMP_NUM_THREADS=1 .venv/bin/python scripts/discovery_realdata.py \
+        [--out scripts/results/discovery_realdata]
 
 Each recording (read and band-limited as :data:`bayes_emt.io.datasets.REALDATA_FILES` says) is
 diagnosed from the base model the evidence prefers; the findings, what stays unexplained, the rms
@@ -120,7 +121,8 @@ def main(argv=None) -> int:
         mv = r["moved"]
         lines.append(
             f"| {name} | {r['baseline_model']} | {r['final_model']} | {fnd} | {une} | "
-            f"{100 * r['rms_rel_residual']['baseline']:.2f} % | {100 * r['rms_rel_residual']['final']:.2f} % | "
+            f"{100 * r['rms_rel_residual']['baseline']:.2f} % | "
+            f"{100 * r['rms_rel_residual']['final']:.2f} % | "
             + " | ".join(
                 f"{mv[k]['before']:.4g} -> {mv[k]['after']:.4g} ({100 * mv[k]['relative_change']:+.1f} %)"
                 for k in ("R0", "Qms", "fs_hz")

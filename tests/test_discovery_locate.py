@@ -7,8 +7,8 @@ import pytest
 
 from bayes_emt.discovery.locate import (
     Band,
-    locate_mismatch,
     ljung_box,
+    locate_mismatch,
     noise_scale,
     projected_jacobian,
     runs_test,

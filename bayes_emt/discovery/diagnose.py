@@ -202,11 +202,13 @@ def _explain(c: Candidate, band: Band, model: Model, moved: dict) -> str:
         and d["relative_change"] is not None
         and abs(d["relative_change"]) > 0.005
     )
+    holds = ("improves the fit and is determined by the data" if c.identifiable
+             else "improves the fit but is not determined by the data: " + c.identifiability)
+    parts = "/".join(band.parts)
     return (
-        f"{head} explains the mismatch in the {'/'.join(band.parts)} part(s) between {lo:.4g} and {hi:.4g} Hz; "
+        f"{head} explains the mismatch in the {parts} part(s) between {lo:.4g} and {hi:.4g} Hz; "
         f"log Z rises by {c.delta_log_z:.1f} nats ({c.strength}); the band's chi2 falls from "
-        f"{c.chi2_band_before:.4g} to {c.chi2_band_after:.4g} ({c.n_band} residuals); "
-        f"{'improves the fit and is determined by the data' if c.identifiable else 'improves the fit but is not determined by the data: ' + c.identifiability}"
+        f"{c.chi2_band_before:.4g} to {c.chi2_band_after:.4g} ({c.n_band} residuals); {holds}"
         + (f"; moved: {shifts}" if shifts else "")
     )
 
