@@ -224,6 +224,23 @@ def run_case(c, out: Path) -> dict:
     return rec
 
 
+def physics_checks(r) -> dict:
+    """Acceptance 2 and 3: the escalated model, and for a vented box the port tuning and the
+    driver's fs and Qms (= 1/(2 zeta)) against the truth (relative errors)."""
+    fin, tru = r["final_parameters"], r["true_parameters"]
+    out = {}
+    if "enclosure_port" in r["expect"] and "omegab" in fin:
+        out["omegab_rel_err"] = fin["omegab"] / tru["omegab"] - 1
+    if "enclosure_port" in r["expect"]:
+        out["fs_rel_err"] = fin["omega0"] / tru["omega0"] - 1
+        out["Qms_rel_err"] = tru["zeta"] / fin["zeta"] - 1
+    if "eddy_current" in r["expect"]:
+        out["final_model"] = r["final_model"]
+        out["delta_log_evidence"] = [f["delta_log_evidence"] for f in r["diagnosis"]["findings"]]
+        out["rms_rel_residual"] = r["diagnosis"]["rms_rel_residual"]
+    return out
+
+
 def run_nulls(out: Path, n: int) -> dict:
     path = out / "null_seeds.json"
     done = json.loads(path.read_text()) if path.exists() else {"runs": []}
@@ -273,7 +290,9 @@ def main(argv=None) -> int:
     extra = sum(len(set(r["found"]) - set(r["expect"])) for r in recs)
     null_cases = [r for r in recs if not r["expect"]]
     false = sum(bool(x["findings"]) for x in nulls["runs"])
+    checks = {r["name"]: physics_checks(r) for r in recs if physics_checks(r)}
     summary = {
+        "physics_checks": checks,
         "cases": len(recs),
         "effects": len(effects),
         "effects_named": named,

@@ -25,8 +25,8 @@ __all__ = ["candidate_physics", "escalations", "LADDER", "COIL_PHYSICS", "MECHAN
 
 #: the coil-model ladder of the eddy-current escalation, lowest first (SPEC §7)
 LADDER: tuple[str, ...] = ("I", "II", "III", "UD", "NL")
-#: NL ring counts the escalation tries (the count is then chosen by evidence)
-RING_COUNTS: tuple[int, ...] = (2, 3, 4, 5)
+#: NL ring counts the escalation tries in order, stopping when one more ring loses evidence
+RING_COUNTS: tuple[int, ...] = (2, 3, 4, 5, 6, 7)
 
 COIL_PHYSICS = ("eddy_current", "semi_inductance", "lr2", "winding_capacitance", "lead_impedance")
 MECHANICAL_PHYSICS = ("suspension_creep", "enclosure_port")

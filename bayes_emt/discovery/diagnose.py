@@ -221,6 +221,7 @@ def diagnose(
     alpha: float = ALPHA,
     seed: int = 0,
     progress=None,
+    time_budget: float | None = 240.0,
 ) -> Diagnosis:
     """Locate, name and model what ``model`` leaves out of ``meas`` (module docstring).
 
@@ -233,8 +234,11 @@ def diagnose(
     alpha : the scan's family-wise false-alarm probability per round.
     seed : seeds the scan's calibration replicates.
     progress : optional ``callable(str)`` told what is being done.
+    time_budget : seconds after which no further candidate is fitted (the round in progress
+        finishes with what it has; a warning says so); ``None``: no limit.
     """
     t0 = time.perf_counter()
+    deadline = None if time_budget is None else t0 + time_budget
     say = progress or (lambda msg: None)
     warn: list[str] = []
     if model is None:
@@ -273,10 +277,14 @@ def diagnose(
             break
         accepted = None
         unexplained_bands = []
+        if deadline is not None and time.perf_counter() > deadline:
+            warn.append(f"time budget of {time_budget:g} s reached: the bands left were not examined")
+            unexplained_bands = list(loc.bands)
+            break
         for band in loc.bands[:MAX_BANDS_PER_ROUND]:
             ids = candidate_physics(band, fit.model, omega_r)
             say(f"band {band.lo:.4g}-{band.hi:.4g} rad/s: trying {', '.join(ids)}")
-            ranked = rank_candidates(meas, fit, lz, band, loc.sigma_rel, ids)
+            ranked = rank_candidates(meas, fit, lz, band, loc.sigma_rel, ids, progress=say, deadline=deadline)
             tried.append(
                 {
                     "round": rnd,
@@ -295,6 +303,9 @@ def diagnose(
                     ],
                 }
             )
+            if deadline is not None and time.perf_counter() > deadline:
+                warn.append(f"time budget of {time_budget:g} s reached while trying candidates for the band "
+                            f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted")
             if ranked and ranked[0].accepted:
                 accepted = (band, ranked[0])
                 break

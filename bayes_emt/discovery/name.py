@@ -28,6 +28,7 @@ has a relative standard error (sampling space, from the fit's covariance) below
 from __future__ import annotations
 
 import math
+import time
 import warnings
 from dataclasses import dataclass, field
 
@@ -200,25 +201,26 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str) -> tuple[b
     return True, "every added parameter is determined by the data", added
 
 
-def fit_candidate(meas: Measurement, current: FitResult, physics: str, band: Band) -> list[FitResult]:
-    """Least-squares fits of ``physics`` added to ``current.model`` (module docstring); for
-    ``eddy_current`` one fit per escalated coil model. Fits that fail are left out."""
+def fit_candidate(
+    meas: Measurement, current: FitResult, physics: str, band: Band
+) -> list[tuple[FitResult, float]]:
+    """``(fit, log Z)`` of ``physics`` added to ``current.model`` (module docstring); for
+    ``eddy_current`` one per escalated coil model. Fits that fail are left out."""
     out = []
     if physics == "eddy_current":
-        # up the ladder; NL's ring count by evidence: stop once two more rings in a row lose
-        best, worse = -math.inf, 0
+        # up the ladder; NL's ring count by evidence: more rings until one more ring loses
+        best = -math.inf
         for model in escalations(current.model):
             try:
                 fit = fit_admittance(meas, model)
             except (FitError, ValueError):
                 continue
-            out.append(fit)
+            lz = log_evidence(meas, fit)
+            out.append((fit, lz))
             if model.base == "NL":
-                lz = log_evidence(meas, fit)
-                worse = worse + 1 if not lz > best else 0
-                best = max(best, lz) if math.isfinite(lz) else best
-                if worse >= 2:
+                if best > -math.inf and not lz > best:
                     break
+                best = max(best, lz) if math.isfinite(lz) else best
         return out
     term = make_term(physics)
     try:
@@ -232,7 +234,10 @@ def fit_candidate(meas: Measurement, current: FitResult, physics: str, band: Ban
         except (FitError, ValueError):
             continue
     ok = [f for f in fits if not f.info.get("resonance_mismatch")] or fits
-    return [min(ok, key=lambda f: f.chi2)] if ok else []
+    if not ok:
+        return []
+    best = min(ok, key=lambda f: f.chi2)
+    return [(best, log_evidence(meas, best))]
 
 
 def rank_candidates(
@@ -242,6 +247,8 @@ def rank_candidates(
     band: Band,
     sigma_rel: float,
     physics_ids: list[str],
+    progress=None,
+    deadline: float | None = None,
 ) -> list[Candidate]:
     """Every candidate of ``physics_ids`` for ``band``, best first (accepted first, then by
     ``Δ log Z``)."""
@@ -250,8 +257,14 @@ def rank_candidates(
     n_band = 2 * (band.i_hi - band.i_lo + 1)
     out = []
     for physics in physics_ids:
-        for fit in fit_candidate(meas, current, physics, band):
-            lz = log_evidence(meas, fit)
+        if deadline is not None and time.perf_counter() > deadline:
+            if progress:
+                progress(f"time budget reached: {physics} and later candidates not tried")
+            break
+        t0 = time.perf_counter()
+        for fit, lz in fit_candidate(meas, current, physics, band):
+            if progress:
+                progress(f"  {physics}: {fit.model.label} log Z {lz:.1f} ({time.perf_counter() - t0:.0f} s)")
             if not math.isfinite(lz):
                 continue
             after = band_chi2(meas, fit.model, fit.theta, band, sigma_rel)
