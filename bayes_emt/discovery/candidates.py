@@ -18,13 +18,11 @@ NL chosen by evidence among the candidates.
 
 from __future__ import annotations
 
-from ..models import AUGMENTATIONS, Model, parse_model_spec
+from ..models import AUGMENTATIONS, Model, eddy_escalations
 from .locate import Band
 
-__all__ = ["candidate_physics", "escalations", "LADDER", "COIL_PHYSICS", "MECHANICAL_PHYSICS"]
+__all__ = ["candidate_physics", "escalations", "RING_COUNTS", "COIL_PHYSICS", "MECHANICAL_PHYSICS"]
 
-#: the coil-model ladder of the eddy-current escalation, lowest first (SPEC §7)
-LADDER: tuple[str, ...] = ("I", "II", "III", "UD", "NL")
 #: NL ring counts the escalation tries in order, stopping when one more ring loses evidence
 RING_COUNTS: tuple[int, ...] = (2, 3, 4, 5, 6, 7)
 
@@ -33,28 +31,10 @@ MECHANICAL_PHYSICS = ("suspension_creep", "enclosure_port")
 ANYWHERE = ("second_resonance", "measurement_artifact", "thermal_drift")
 
 
-def _rung(model: Model) -> int | None:
-    base = model.base
-    return LADDER.index(base) if base in LADDER else None
-
-
 def escalations(model: Model) -> list[Model]:
-    """The models one or more rungs up the eddy-current ladder from ``model``'s coil model, with
-    ``model``'s augmentations kept; NL at each of :data:`RING_COUNTS` (and above the current
-    count when ``model`` is NL already). Empty when the coil is not on the ladder or at the top."""
-    rung = _rung(model)
-    if rung is None:
-        return []
-    extra = "".join("+" + t.id for t in model.augmentations)
-    out = []
-    for name in LADDER[rung + 1 :]:
-        if name == "NL":
-            out += [parse_model_spec(f"NL({n}){extra}") for n in RING_COUNTS]
-        else:
-            out.append(parse_model_spec(name + extra))
-    if model.base == "NL" and model.rings is not None:
-        out += [parse_model_spec(f"NL({n}){extra}") for n in RING_COUNTS if n > model.rings]
-    return out
+    """The eddy-current escalations of ``model`` (:func:`~bayes_emt.models.eddy_escalations`) with
+    NL at each of :data:`RING_COUNTS`."""
+    return eddy_escalations(model, RING_COUNTS)
 
 
 def candidate_physics(band: Band, model: Model, omega_r: float | None) -> list[str]:

@@ -217,7 +217,7 @@ def fit_candidate(
                 continue
             lz = log_evidence(meas, fit)
             out.append((fit, lz))
-            if model.base == "NL":
+            if model.rings is not None:  # the ring ladder
                 if best > -math.inf and not lz > best:
                     break
                 best = max(best, lz) if math.isfinite(lz) else best
