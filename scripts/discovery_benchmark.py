@@ -269,12 +269,17 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="scripts/results/discovery")
     ap.add_argument("--only", nargs="*", default=None)
     ap.add_argument("--null-seeds", type=int, default=20)
+    ap.add_argument("--nulls-only", action="store_true", help="run only the null seeds")
+    ap.add_argument("--report-only", action="store_true",
+                    help="score the cases already finished in --out (run nothing new)")
     a = ap.parse_args(argv)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     recs = []
     for c in cases():
         if a.only and c["name"] not in a.only:
+            continue
+        if a.nulls_only or (a.report_only and not (out / "cases" / f"{c['name']}.json").exists()):
             continue
         r = run_case(c, out)
         recs.append(r)
@@ -284,7 +289,11 @@ def main(argv=None) -> int:
             f"band {'ok' if r['band_overlap'] else 'MISS'} {r['seconds']:.0f} s",
             flush=True,
         )
-    nulls = run_nulls(out, a.null_seeds) if a.null_seeds and not a.only else {"runs": []}
+    if a.report_only:
+        p = out / "null_seeds.json"
+        nulls = json.loads(p.read_text()) if p.exists() else {"runs": []}
+    else:
+        nulls = run_nulls(out, a.null_seeds) if a.null_seeds and not a.only else {"runs": []}
     effects = [(r, e) for r in recs for e in r["expect"]]
     named = sum(e in r["found"] for r, e in effects)
     extra = sum(len(set(r["found"]) - set(r["expect"])) for r in recs)
@@ -319,7 +328,7 @@ def main(argv=None) -> int:
         )
     lines.append("")
     lines.append("```\n" + json.dumps(summary, indent=1) + "\n```")
-    if not a.only:
+    if not a.only and not a.nulls_only:
         atomic_write_text(out / "scores.md", "\n".join(lines) + "\n")
         atomic_write_text(
             out / "scores.json",

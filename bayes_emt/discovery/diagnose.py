@@ -175,13 +175,14 @@ def moved_parameters(before: FitResult, after: FitResult) -> dict:
 
 
 def _fmt(v: float, unit: str) -> str:
+    """``v`` with its unit, SI prefixes for F, H and Ω; dimensionless (unit ``1``) bare."""
     prefixes = [(1e-12, "p"), (1e-9, "n"), (1e-6, "µ"), (1e-3, "m"), (1.0, ""), (1e3, "k")]
     if unit in ("F", "H", "Ω", "ohm") and v != 0:
         for scale, pre in reversed(prefixes):
             if abs(v) >= scale:
                 return f"{v / scale:.3g} {pre}{unit}"
         return f"{v:.3g} {unit}"
-    return f"{v:.4g} {unit}".strip()
+    return f"{v:.4g}" if unit == "1" else f"{v:.4g} {unit}".strip()
 
 
 def _explain(c: Candidate, band: Band, model: Model, moved: dict) -> str:
