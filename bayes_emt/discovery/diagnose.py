@@ -337,13 +337,12 @@ def diagnose(
                 True if term is None else term.device,
                 params,
                 c.fit.model.label,
-                _explain(c, band, c.fit.model, moved),
+                _explain(c, band, c.fit.model, moved)
+                + ("" if term is None or term.device else "; an instrument or session effect, not the device"),
             )
         )
         say(findings[-1].explanation)
         fit, lz = c.fit, c.log_z
-    else:  # pragma: no cover - the loop always breaks
-        pass
     unexplained = []
     for band in unexplained_bands:
         shape = residual_shape(meas, fit.model, fit.theta, band)
