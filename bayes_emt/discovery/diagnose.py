@@ -338,7 +338,7 @@ def diagnose(
                 params,
                 c.fit.model.label,
                 _explain(c, band, c.fit.model, moved)
-                + ("" if term is None or term.device else "; an instrument or session effect, not the device"),
+                + ("" if term is None or term.device else "; an instrument or session effect"),
             )
         )
         say(findings[-1].explanation)
