@@ -194,9 +194,9 @@ def run_case(c, out: Path) -> dict:
         return json.loads(path.read_text())
     model, vals, meas = simulate_case(c)
     start = parse_model_spec("NL(5)" if c["start"] == "NL" else c["start"])
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.process_time()
     d = diagnose(meas, start, seed=0)
-    seconds = time.perf_counter() - t
+    seconds, cpu = time.perf_counter() - t, time.process_time() - cpu
     found = [f.physics for f in d.findings]
     bands = true_bands(c, model, vals)
     rec = {
@@ -208,6 +208,7 @@ def run_case(c, out: Path) -> dict:
         "found": found,
         "final_model": d.final_model,
         "seconds": seconds,
+        "cpu_seconds": cpu,
         "right": sorted(found) == c["expect"],
         "band_overlap": all(
             overlaps(f.band and [f.band.lo, f.band.hi], bands.get(f.physics))

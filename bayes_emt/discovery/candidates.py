@@ -49,4 +49,7 @@ def candidate_physics(band: Band, model: Model, omega_r: float | None) -> list[s
     if low:
         out += list(MECHANICAL_PHYSICS)
     out += list(ANYWHERE)
+    # the eddy-current escalation refits the coil model up the ladder (NL fits are the slowest):
+    # last, so that a time budget cuts it rather than the cheap catalogue terms
+    out = [p for p in out if p != "eddy_current"] + [p for p in out if p == "eddy_current"]
     return [p for p in out if p not in present and (p == "eddy_current" or p in AUGMENTATIONS)]

@@ -257,7 +257,7 @@ def rank_candidates(
     n_band = 2 * (band.i_hi - band.i_lo + 1)
     out = []
     for physics in physics_ids:
-        if deadline is not None and time.perf_counter() > deadline:
+        if deadline is not None and time.process_time() > deadline:
             if progress:
                 progress(f"time budget reached: {physics} and later candidates not tried")
             break
