@@ -87,6 +87,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="scripts/results/discovery_realdata")
     ap.add_argument("--only", nargs="*", default=None)
+    ap.add_argument("--report-only", action="store_true",
+                    help="tabulate the recordings already diagnosed in --out (and the added-mass pair)")
     a = ap.parse_args(argv)
     if not REAL.exists():
         print(f"no real recordings at {REAL}")
@@ -95,7 +97,7 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     recs = {}
     for name in sorted(REALDATA_FILES):
-        if a.only and name not in a.only:
+        if (a.only and name not in a.only) or (a.report_only and not (out / f"{name}.json").exists()):
             continue
         print(name, flush=True)
         recs[name] = run_one(name, out)
