@@ -18,6 +18,10 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
     path = Path(path)
     if path.parent and not path.parent.exists():
         raise FileNotFoundError(f"{path}: folder {path.parent} does not exist")
+    if path.parent and not path.parent.is_dir():
+        raise NotADirectoryError(f"{path}: {path.parent} is a file, not a folder")
+    if path.is_dir():
+        raise IsADirectoryError(f"{path}: is a folder, not a file")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix or ".tmp",
                                dir=path.parent if str(path.parent) else ".")
     os.close(fd)

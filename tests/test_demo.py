@@ -39,6 +39,12 @@ def test_demo_runs_end_to_end_and_says_when_the_posterior_did_not_converge(tmp_p
     assert shunts["NL"]["evaluated_on_NL"]["attenuation_db"] == pytest.approx(-24.7, abs=0.1)
     post = json.loads((out / "posterior.json").read_text())
     assert post["converged"] is False and post["n_steps"] == 200 and post["seed"] == 3
+    # issue 9: every fit carries its warnings; the adequate NL(5) fit none, model I (no eddy
+    # currents) model_inadequate; the posterior's JSON carries the NL fit's, plus not_converged
+    assert all(isinstance(f["warnings"], list) for f in fits.values())
+    assert nl["warnings"] == [] and "model_inadequate" in [w["code"] for w in fits["I"]["warnings"]]
+    assert [w["code"] for w in post["warnings"]] == ["not_converged"]
+    assert "WARNING [model_inadequate]" in text
     import arviz as az
 
     dt = az.from_netcdf(out / "posterior.nc")

@@ -36,6 +36,7 @@ def test_noise_free_recovery_from_data_alone(name, rings, table):
     fit = fit_admittance(meas, model)
     rel = np.abs(fit.theta / truth - 1)
     assert np.max(rel) < (0.01 if name == "NL" else 1e-3), dict(zip(model.names, rel, strict=True))
+    assert fit.warnings == ()  # the exact model: round-off residuals are no misfit (adequacy.NOISE_FLOOR)
     if name == "NL":
         z_fit = model.coil_impedance(meas.omega, fit.theta)
         z_true = model.coil_impedance(meas.omega, truth)
@@ -171,20 +172,42 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
 
 
 def test_a_too_simple_model_keeps_the_resonance_where_the_data_has_it():
-    # model I on the bundled NL(5) data (Table 5 truth, omega0 = 50.8 rad/s): its lowest
-    # relative-residual cost is a degenerate optimum (zeta at its bound 2, omega0 ~ 4.6e4 rad/s,
-    # the mechanical branch mimicking the eddy-current resistance rise); the fit must keep the
-    # transducer's resonance and record the rejected candidate
+    # model I on the bundled NL(5) data (Table 5 truth, omega0 = 50.8 rad/s): the relative-residual
+    # objective has a degenerate optimum (zeta at its bound 2, omega0 ~ 4.6e4 rad/s, the mechanical
+    # branch mimicking the eddy-current resistance rise) cheaper than any fit that keeps the
+    # resonance. The fit must keep the transducer's resonance. Which start-ups end in the degenerate
+    # valley depends on rounding (another processor sent a different one to omega0 = 11.4 rad/s), so
+    # the rejected candidates are checked against the rule's definition, not pinned
+    from bayes_emt.estimation.checks import locate_resonance
+    from bayes_emt.estimation.fitting import batched_least_squares
     from bayes_emt.io.datasets import load_paper_bench
 
     meas = load_paper_bench()
-    fit = fit_admittance(meas, build_model("I"))
+    model = build_model("I")
+    fit = fit_admittance(meas, model)
     p = fit.parameters
     assert abs(p["omega0"] / 50.8 - 1) < 0.01 and p["zeta"] < 0.05, p
-    rej = fit.info["rejected"]
-    assert rej and all(r["omega0"] > 1e3 for r in rej)
-    assert min(r["rms_rel_residual"] for r in rej) < fit.rms_rel_residual  # cheaper, but not the transducer
     assert "resonance_mismatch" not in fit.info
+    res = locate_resonance(meas)
+    lo_w, hi_w = 0.5 * min(res.omega_lo, res.omega), 2 * max(res.omega_hi, res.omega)
+    for r in fit.info.get("rejected", []):  # the rule: omega0 outside a factor 2 of the peak's band
+        assert not lo_w <= r["omega0"] <= hi_w, r
+    # the degenerate optimum exists and is cheaper: a local least-squares descent of the same
+    # objective from a start in its valley stays there, below the fit's cost
+    w = 1 / np.abs(meas.Y)
+
+    def batch(z):
+        d = (model.admittance(meas.omega, model.params.from_z(z)) - meas.Y) * w
+        return np.concatenate([d.real, d.imag], axis=-1)
+
+    lo, hi = model.params.bounds_z()
+    start = model.params.to_z(model.vector({"zeta": 1.9, "omega0": 4.6e4, "phi": 100.0, "R0": 2.57,
+                                            "L0": 1.65e-3}))
+    sol = batched_least_squares(batch, start, lo, hi, max_nfev=500)
+    degenerate = model.params.from_z(sol.x)
+    assert degenerate[1] > 1e4 and 2 * sol.cost < fit.chi2, (degenerate, 2 * sol.cost, fit.chi2)
+    # and a model this poor says so
+    assert "model_inadequate" in fit.warning_codes
 
 
 def test_high_resistance_coil_of_a_geophone_fits():

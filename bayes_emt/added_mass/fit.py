@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
+from .._json import strict_json
 from ..errors import FitError
 from ..estimation.results import FitResult
 from ..measurement import Measurement
@@ -235,18 +236,7 @@ class AddedMassResult:
                 "separate_fits": self.separate, "two_fit": self.two_fit, "consistency": self.consistency,
                 "noise_rel": list(self.noise_rel), "rms_rel_residual": list(self.rms_rel_residual),
                 "success": self.success, "message": self.message}
-        return _finite(rec)
-
-
-def _finite(obj):
-    """``obj`` with non-finite floats replaced by ``None`` (strict JSON)."""
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_finite(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
+        return strict_json(rec)
 
 
 def _rel_residuals(model: Model, meas: Measurement, theta):

@@ -2,7 +2,9 @@
 
 Sub-commands live one per module in :mod:`bayes_emt.cli.commands`; each module defines
 ``register(subparsers)`` which adds its parser and sets ``func=run``. Errors the user can fix
-(bad files, bad options) print one line ``bayes-emt: error: ...`` and exit with code 2.
+(bad files, bad options, output paths that cannot be written, :mod:`bayes_emt.cli.paths`) print
+one line ``bayes-emt: error: ...`` and exit with code 2, option errors found by the parser
+included (``bayes-emt: error: argument --seed: ...``); never a traceback.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ import argparse
 import importlib
 import pkgutil
 import sys
+import time
 import warnings
 
 from ..errors import BayesEMTError
@@ -19,8 +22,19 @@ from . import commands
 __all__ = ["main", "build_parser"]
 
 
+class UsageError(Exception):
+    """An option the parser refuses (raised instead of argparse's usage dump and exit)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse whose errors are one line: ``bayes-emt: error: argument --seed: ...``."""
+
+    def error(self, message):
+        raise UsageError(f"{message} (see '{self.prog} -h')")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="bayes-emt",
         description="Parameters, uncertainty, evidence and shunt design for electromagnetic "
                     "transducers from their electrical admittance alone.")
@@ -40,12 +54,20 @@ def _showwarning(message, category, filename, lineno, file=None, line=None):
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except UsageError as exc:
+        print(f"bayes-emt: error: {exc}", file=sys.stderr)
+        return 2
     warnings.showwarning = _showwarning
+    t0 = time.perf_counter()
     try:
         rc = args.func(args)
-    except (BayesEMTError, ValueError, KeyError, FileNotFoundError, FileExistsError, IsADirectoryError,
-            PermissionError) as exc:
+        if getattr(args, "verbose", False):
+            print(f"bayes-emt {args.command}: finished in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    except (BayesEMTError, ValueError, KeyError, OSError) as exc:
+        # OSError: FileNotFoundError, FileExistsError, IsADirectoryError, NotADirectoryError,
+        # PermissionError, a full disk...: the user can act on each; say it in one line
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"bayes-emt: error: {msg}", file=sys.stderr)
         return 2

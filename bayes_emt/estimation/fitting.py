@@ -44,6 +44,7 @@ from scipy import optimize
 from ..errors import FitError
 from ..measurement import Measurement
 from ..models import Model
+from .adequacy import assess_fit
 from .augment import augmentation_starts
 from .checks import check_fit_inputs
 from .guess import find_initial_estimate
@@ -356,7 +357,10 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
                 if np.isclose(zi, a, atol=1e-6) or np.isclose(zi, b, atol=1e-6)]
     if at_bound:
         info["at_prior_bound"] = at_bound
-    return FitResult(model=model, theta=theta, cov_z=covariance_z(J, r, k),
+    cov = covariance_z(J, r, k)
+    warns = assess_fit(model, meas, theta, z=z, bounds_z=(lo, hi), cov_z=cov, jacobian=J, resonance=resonance,
+                       info=info)
+    return FitResult(model=model, theta=theta, cov_z=cov,
                      chi2=float(r @ r), rms_rel_residual=float(np.sqrt(np.mean(np.abs(rel) ** 2))),
                      n_points=meas.n_points, success=bool(sol.status > 0), message=str(sol.message),
-                     initial=np.array(starts[0], float), info=info)
+                     initial=np.array(starts[0], float), info=info, warnings=warns)

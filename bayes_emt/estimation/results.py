@@ -30,6 +30,9 @@ class FitResult:
     message : the optimiser's message (or why the fallback was taken).
     initial : (k,) the automatic initial estimate the fit started from.
     info : extra, JSON-serialisable details (steps, timings, method).
+    warnings : what makes the estimate untrustworthy, as ``{"code", "message"}`` records
+        (:mod:`bayes_emt.estimation.adequacy`: ``model_inadequate``, ``parameter_at_bound``,
+        ``not_identifiable``, ``resonance_outside_data``); empty when nothing was found.
     """
 
     model: Model
@@ -42,6 +45,12 @@ class FitResult:
     message: str = ""
     initial: np.ndarray | None = None
     info: dict = field(default_factory=dict)
+    warnings: tuple[dict, ...] = ()
+
+    @property
+    def warning_codes(self) -> tuple[str, ...]:
+        """The codes of :attr:`warnings`, in order."""
+        return tuple(w["code"] for w in self.warnings)
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -74,4 +83,5 @@ class FitResult:
             "n_points": int(self.n_points),
             "success": bool(self.success),
             "message": self.message,
+            "warnings": [{"code": str(w["code"]), "message": str(w["message"])} for w in self.warnings],
         }

@@ -47,6 +47,10 @@ same values; at most ``reseed_every − 1`` steps are computed twice. This does 
 emcee's stored random state, which a kill between its attribute writes could leave one step
 ahead of the stored iteration count. A resume checks that the checkpoint belongs to the same
 model, priors, likelihood, data (SHA-256), seed and walker count, and refuses otherwise.
+
+Checkpoints are opened without HDF5 file locking, so a reader never kills the run; a run that
+stores no step removes the checkpoint it created, and a checkpoint holding no step never blocks
+the next run (:mod:`bayes_emt.inference.checkpoint`).
 """
 
 from __future__ import annotations
@@ -61,7 +65,6 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import emcee
-import h5py
 import numpy as np
 from emcee.moves.red_blue import RedBlueMove
 
@@ -70,14 +73,14 @@ from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import Model
 from ..params import ParamSet
+from .checkpoint import GROUP as _GROUP
+from .checkpoint import CheckpointBackend, check_checkpoint, checkpoint_steps, h5_open
 from .likelihood import Likelihood, LikelihoodKind
 from .posterior import Posterior
 
 __all__ = ["SamplerSettings", "SnookerMove", "default_moves", "initial_walkers", "stopping_rule",
            "sample_posterior", "sample_likelihood",
-           "run_ensemble", "start_ball", "noise_start"]
-
-_GROUP = "mcmc"
+           "run_ensemble", "start_ball", "noise_start", "checkpoint_steps", "check_checkpoint"]
 
 
 @dataclass(frozen=True)
@@ -119,6 +122,12 @@ class SnookerMove(RedBlueMove):
     For a walker ``x``, three points ``a, z1, z2`` of the complementary walkers: with
     ``e = (x − a)/|x − a|``, propose ``x' = x + γ e·(z1 − z2) e``, ``γ ~ U(1.2, 2.2)``, and accept
     with ``min(1, π(x')/π(x) · (|x' − a|/|x − a|)^(d − 1))``.
+
+    emcee 3.1.6's ``DESnookerMove`` (the latest release) projects on ``delta/sqrt(|delta|)`` and
+    halves the ``(d − 1)`` exponent. Upstream fixed both in emcee PR #531 (commit 946e664,
+    "Update de_snooker.py", merged 27 January 2025: ``u = delta / norm`` and
+    ``(ndim - 1.0) * metropolis``), not in a release yet. This class does not depend on
+    which emcee is installed; tests/test_sampling.py checks emcee's own move either way.
     """
 
     def __init__(self, gamma_range: tuple[float, float] = (1.2, 2.2), **kwargs):
@@ -161,10 +170,39 @@ def initial_walkers(lik: Likelihood, fit: FitResult, nwalkers: int, rng: np.rand
     if cov is None:
         cov = np.diag((1e-3 * np.maximum(np.abs(z0), 1.0)) ** 2)
     centre, spread = noise_start(fit.rms_rel_residual, float(np.min(np.abs(lik.meas.Y))))
+    centre = _noise_start_in_priors(lik, fit, centre)
     if lik.sample_nu:
         centre.append(math.log(10.0))
         spread.append(0.3)
     return start_ball(lik, z0, cov, centre, spread, nwalkers, rng)
+
+
+def _noise_start_in_priors(lik: Likelihood, fit: FitResult, centre: list[float]) -> list[float]:
+    """``centre`` moved inside the noise priors: when the prior of ``sigma_rel`` excludes the fit's
+    relative residual level, the absolute floor ``sigma_abs`` starts at the level that explains the
+    residuals instead; when neither prior reaches it, raise, naming both (walkers started far
+    outside the posterior's mass never move, and the chain has no autocorrelation time)."""
+    names = lik.noise_params.names
+    if "sigma_rel" not in names or "sigma_abs" not in names:
+        return centre
+    lo, hi = lik.params.bounds_z()
+    i_rel, i_abs = lik.params.index("sigma_rel"), lik.params.index("sigma_abs")
+    if lo[i_rel] <= centre[0] <= hi[i_rel]:
+        return centre
+    r = lik.model.admittance(lik.meas.omega, fit.theta) - lik.meas.Y
+    level = float(np.sqrt(np.mean(np.abs(r) ** 2) / 2))  # absolute residual per part [S]
+    rel_ok = float(np.clip(centre[0], lo[i_rel] + 1e-6, hi[i_rel] - 1e-6))
+    z_abs = math.log(level) if level > 0 else centre[1]
+    if not (lo[i_abs] < z_abs < hi[i_abs]):
+        def show(i):
+            d = dict(lik.params[i].prior.to_dict())
+            return f"{d.pop('dist', '?')}(" + ", ".join(f"{k}={v:g}" for k, v in d.items()) + ")"
+
+        raise ValueError(
+            f"the noise priors exclude the data: the least-squares residuals are "
+            f"{100 * math.exp(centre[0]):.3g} % of |Y| per real/imaginary part ({level:.3g} S rms), but "
+            f"sigma_rel is {show(i_rel)} [1] and sigma_abs {show(i_abs)} [S]: widen one of them (--priors)")
+    return [rel_ok, z_abs]
 
 
 def noise_start(rms_rel: float, min_abs_Y: float) -> tuple[list[float], list[float]]:
@@ -204,14 +242,15 @@ def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Ge
                    "the least-squares fit (check the priors against the fitted values)")
 
 
-def autocorr_time(chain: np.ndarray) -> np.ndarray:
-    """Integrated autocorrelation time [steps] of each parameter of ``chain (steps, walkers, k)``
-    (emcee's estimator, no length check). A walker that has not moved yet makes emcee's estimate
-    NaN (its autocorrelation is 0/0); the parameter's time then counts as the whole chain's length,
-    which fails every convergence criterion, as it should."""
+def _tau(chain: np.ndarray) -> tuple[np.ndarray, bool]:
+    """Integrated autocorrelation time of each parameter [steps], and whether some parameter never
+    moved. emcee returns NaN for a parameter whose walkers never moved (0/0); its τ is then at
+    least the chain's length, which is used instead, so every rule reads 'not converged' and no
+    NaN reaches an integer (burn-in, thinning)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         tau = emcee.autocorr.integrated_time(chain, tol=0)
-    return np.where(np.isfinite(tau), tau, float(chain.shape[0]))
+    ok = np.isfinite(tau)
+    return np.where(ok, tau, float(chain.shape[0])), not bool(np.all(ok))
 
 
 def stopping_rule(chain: np.ndarray, n: int, settings: SamplerSettings) -> dict:
@@ -222,20 +261,20 @@ def stopping_rule(chain: np.ndarray, n: int, settings: SamplerSettings) -> dict:
     """
     chain = chain[:n]
     nwalkers = chain.shape[1]
-    tau = autocorr_time(chain)
+    tau, stuck = _tau(chain)
     prev = n - settings.check_every
     change = math.inf
     if prev >= settings.check_every:
-        tau_prev = autocorr_time(chain[:prev])
+        tau_prev, _ = _tau(chain[:prev])
         change = float(np.max(np.abs(tau - tau_prev) / tau))
-    burn = int(math.ceil(2 * np.max(tau)))
+    burn = min(int(math.ceil(2 * np.max(tau))), n)
     ess = nwalkers * max(n - burn, 0) / tau
     out = {"step": int(n), "tau_max": float(np.max(tau)), "n_over_tau": float(n / np.max(tau)),
            "tau_change": change, "ess_min": float(np.min(ess)),
            "long_enough": bool(n >= settings.min_tau_multiple * np.max(tau)),
            "tau_stable": bool(change < settings.tau_rtol),
-           "ess_reached": bool(np.min(ess) >= settings.ess_target)}
-    out["converged"] = out["long_enough"] and out["tau_stable"] and out["ess_reached"]
+           "ess_reached": bool(np.min(ess) >= settings.ess_target), "stuck": stuck}
+    out["converged"] = out["long_enough"] and out["tau_stable"] and out["ess_reached"] and not stuck
     return out
 
 
@@ -244,7 +283,10 @@ def _verdict_message(v: dict, max_steps: int, settings: SamplerSettings) -> str:
         return (f"converged at step {v['step']}: chain {v['n_over_tau']:.0f} tau_max, "
                 f"min ESS {v['ess_min']:.0f}, tau changed {100 * v['tau_change']:.1f} % since the last check")
     why = []
-    if not v["long_enough"]:
+    if v.get("stuck"):
+        why.append("some parameters never moved (no accepted proposal: tau undefined); the posterior is "
+                   "far narrower than the walkers' start, or zero around it: check the priors")
+    elif not v["long_enough"]:
         why.append(f"chain = {v['n_over_tau']:.1f} tau_max (need {settings.min_tau_multiple:g})")
     if not v["tau_stable"]:
         ch = "no previous check" if not math.isfinite(v["tau_change"]) else f"{100 * v['tau_change']:.1f} %"
@@ -261,7 +303,7 @@ def _run_identity(target, seed: int, nwalkers: int, settings: SamplerSettings) -
 
 def _check_resume(path: Path, ident: dict) -> None:
     try:
-        with h5py.File(path, "r") as f:
+        with h5_open(path, "r") as f:
             stored = json.loads(f[_GROUP].attrs["bayes_emt"])
     except (OSError, KeyError, ValueError) as exc:
         raise ValueError(f"{path}: cannot resume: not a bayes_emt sampler checkpoint ({exc})") from None
@@ -285,23 +327,23 @@ def _open_backend(checkpoint, resume, overwrite, ident, nwalkers, ndim, reseed_e
         backend.reset(nwalkers, ndim)
         return backend
     path = Path(checkpoint)
+    check_checkpoint(path, resume=resume, overwrite=overwrite)
     if resume:
-        if not path.exists():
-            raise FileNotFoundError(f"{path}: no checkpoint to resume")
         _check_resume(path, ident)
-        with h5py.File(path, "a") as f:
+        with h5_open(path, "a") as f:
             g = f[_GROUP]
             g.attrs["iteration"] = (int(g.attrs["iteration"]) // reseed_every) * reseed_every
-        return emcee.backends.HDFBackend(str(path), name=_GROUP)
+        return CheckpointBackend(str(path), name=_GROUP)
     if path.exists():
-        if not overwrite:
-            raise FileExistsError(f"{path}: a checkpoint exists; continue it with --resume, or start "
-                                  "afresh with --overwrite (or another --checkpoint)")
         path.unlink()
-    backend = emcee.backends.HDFBackend(str(path), name=_GROUP)
-    backend.reset(nwalkers, ndim)
-    with h5py.File(path, "a") as f:
-        f[_GROUP].attrs["bayes_emt"] = json.dumps(ident)
+    backend = CheckpointBackend(str(path), name=_GROUP)
+    try:
+        backend.reset(nwalkers, ndim)
+        with h5_open(path, "a") as f:
+            f[_GROUP].attrs["bayes_emt"] = json.dumps(ident)
+    except BaseException:
+        path.unlink(missing_ok=True)
+        raise
     return backend
 
 
@@ -338,9 +380,6 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
     nwalkers += nwalkers % 2
     ident = _run_identity(target, seed, nwalkers, settings)
     backend = _open_backend(checkpoint, resume, overwrite, ident, nwalkers, ndim, settings.reseed_every)
-    z0 = start(nwalkers) if backend.iteration == 0 else None
-    sampler = emcee.EnsembleSampler(nwalkers, ndim, target.emcee_log_prob, moves=default_moves(),
-                                    vectorize=True, backend=backend)
     progress = sys.stderr.isatty() if progress is None else bool(progress)
     from tqdm.auto import tqdm
 
@@ -349,6 +388,9 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
     history: list[dict] = []
     verdict = None
     try:
+        z0 = start(nwalkers) if backend.iteration == 0 else None
+        sampler = emcee.EnsembleSampler(nwalkers, ndim, target.emcee_log_prob, moves=default_moves(),
+                                        vectorize=True, backend=backend)
         while True:
             n = backend.iteration
             if n > 0 and (n % settings.check_every == 0 or n >= max_steps):
@@ -368,13 +410,18 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
                     state.random_state = _block_state(seed, block)
             sampler.run_mcmc(state, seg, skip_initial_state_check=n > 0)
             bar.update(seg)
+    except BaseException:
+        # a run that stored no step leaves no checkpoint of its own making behind
+        if checkpoint is not None and not resume and checkpoint_steps(checkpoint) in (0, None):
+            Path(checkpoint).unlink(missing_ok=True)
+        raise
     finally:
         bar.close()
     message = _verdict_message(verdict, max_steps, settings)
     if not verdict["converged"]:
         warnings.warn(f"{target.label}: {message}", ConvergenceWarning, stacklevel=3)
     chain = backend.get_chain()
-    tau = autocorr_time(chain)
+    tau, _ = _tau(chain)
     burn = min(int(math.ceil(2 * np.max(tau))), chain.shape[0] - 1)
     return {"chain": chain, "log_prob": backend.get_log_prob(), "blobs": backend.get_blobs(), "tau": tau,
             "burn": burn, "max_draws": settings.max_draws,

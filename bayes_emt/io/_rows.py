@@ -21,10 +21,31 @@ __all__ = ["MIN_POINTS", "read_text", "split_cells", "detect_delimiter", "numeri
 
 MIN_POINTS = 3
 _DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+(?:[eE][-+]?\d+)?$")
+_BOMS = ((b"\xff\xfe\x00\x00", "utf-32-le"), (b"\x00\x00\xfe\xff", "utf-32-be"), (b"\xff\xfe", "utf-16-le"),
+         (b"\xfe\xff", "utf-16-be"))
+
+
+def _wide_encoding(raw: bytes) -> str | None:
+    """UTF-16/32 by byte-order mark, or UTF-16 without one by its pattern (ASCII text in UTF-16
+    has a NUL in every other byte); ``None`` otherwise."""
+    for bom, enc in _BOMS:
+        if raw.startswith(bom):
+            return enc
+    head = raw[:4096]
+    n = len(head) // 2 * 2
+    if n < 8:
+        return None
+    even, odd = head[0:n:2], head[1:n:2]
+    if odd.count(0) > 0.9 * len(odd) and even.count(0) == 0:
+        return "utf-16-le"
+    if even.count(0) > 0.9 * len(even) and odd.count(0) == 0:
+        return "utf-16-be"
+    return None
 
 
 def read_text(path: Path) -> str:
-    """The file's text; raise for a missing, empty, folder or binary file."""
+    """The file's text (UTF-8, Latin-1, or UTF-16/32 with or without a byte-order mark); raise for
+    a missing, empty, folder or binary file."""
     if not path.exists():
         raise DataFormatError(f"{path}: no such file")
     if path.is_dir():
@@ -32,6 +53,16 @@ def read_text(path: Path) -> str:
     raw = path.read_bytes()
     if not raw.strip():
         raise DataFormatError(f"{path}: empty file")
+    wide = _wide_encoding(raw)
+    if wide is not None:
+        try:
+            text = raw[len(next((b for b, e in _BOMS if e == wide and raw.startswith(b)), b"")):].decode(wide)
+        except UnicodeDecodeError as exc:
+            raise DataFormatError(f"{path}: looks like {wide.upper()} text but does not decode "
+                                  f"({exc.reason} at byte {exc.start})") from None
+        if not text.strip():
+            raise DataFormatError(f"{path}: empty file")
+        return text
     nul = raw.find(b"\x00", 0, 65536)
     if nul >= 0:
         line = raw[:nul].count(b"\n") + 1
@@ -69,9 +100,10 @@ def split_cells(line: str, delim: str | None) -> list[str]:
 
 
 def uses_decimal_comma(line: str, delim: str | None) -> bool:
-    """True for ``10,5;3,2;45`` or tab/space-separated ``10,5 3,2``: commas are decimal marks."""
-    return delim != "," and "." not in line and any(
-        _DECIMAL_COMMA.match(c) for c in split_cells(line, delim))
+    """True for ``10,5;3,2;45`` or tab/space-separated ``10,5 3,2``: commas are decimal marks
+    (a ``.`` elsewhere on such a line is then a thousands separator, which
+    :func:`numeric_rows` refuses)."""
+    return delim != "," and any(_DECIMAL_COMMA.match(c) for c in split_cells(line, delim))
 
 
 def is_numeric_line(line: str, delim: str | None, decimal_comma: bool = False) -> bool:
@@ -98,6 +130,10 @@ def numeric_rows(lines: list[tuple[int, str]], delim: str | None, ncols: int, pa
             raise DataFormatError(f"{path}:{lineno}: expected {ncols} columns, found {len(cells)}"
                                   + (f" ({what})" if what else ""))
         for c, cell in enumerate(cells):
+            if decimal_comma and "." in cell:
+                raise DataFormatError(f"{path}:{lineno}: {cell!r} has a '.' although this file's decimal "
+                                      "mark is ',': is '.' a thousands separator? Export the numbers "
+                                      "without thousands separators")
             try:
                 v = float(cell.replace(",", ".") if decimal_comma else cell)
             except ValueError:

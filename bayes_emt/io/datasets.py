@@ -2,7 +2,8 @@
 
 ``paper_bench.csv`` ships inside the package (``bayes_emt/data/``, package data) so an installed
 ``bayes-emt demo`` finds it; ``data/README.md`` in the source tree documents it and
-``data/make_paper_bench.py`` regenerates it bit for bit.
+``data/make_paper_bench.py`` regenerates it (bit for bit on one machine and library build; to
+within about 1e-15 relative on another processor, whose SIMD kernels round differently).
 """
 
 from __future__ import annotations

@@ -42,8 +42,16 @@ def model_from_record(rec: Mapping, *, where: str = "parameters") -> tuple[Model
             model = model_from_dict({**rec, "rings": None, "parameters": None}, where=where)
         else:
             raise DataFormatError(str(exc) if str(exc).startswith(where) else f"{where}: {exc}") from None
+    values = {}
+    for k, v in params.items():
+        # JSON null, a string or a boolean is no number: name the parameter (float(None) would not)
+        if v is None or isinstance(v, bool) or not isinstance(v, int | float):
+            unit = next((s.unit for s in model.params if s.name == k), None)
+            raise DataFormatError(f"{where}: parameter {k!r} is {json.dumps(v)}; give a number"
+                                  + (f" [{unit}]" if unit else ""))
+        values[k] = float(v)
     try:
-        theta = model.vector({k: float(v) for k, v in params.items()})
+        theta = model.vector(values)
     except (KeyError, TypeError, ValueError) as exc:
         raise DataFormatError(f"{where}: {exc}") from None
     bad = [n for n, v in zip(model.names, theta, strict=True) if not math.isfinite(v)]

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import warnings
 from pathlib import Path
 
@@ -42,6 +43,8 @@ _NAMES = {"freq_unit": ("frequency unit", "freq-unit", "hz|rad/s"),
 _SAYS = {"freq_unit": "whether frequencies are in Hz or rad/s",
          "phase_unit": "whether the phase is in degrees or radians",
          "quantity": "whether the values are impedance Z or admittance Y"}
+_THOUSANDS = re.compile(r"^\d{1,3}(?:\.\d{3})+$")
+_PASSIVE_TOL = 1e-3  # Re Z below -0.1 % of |Z| (phase beyond +-90.06 deg) is not rounding
 _LABEL = {"hz": "Hz", "khz": "kHz", "mhz": "MHz", "ghz": "GHz", "rad/s": "rad/s", "deg": "degrees",
           "rad": "radians", "Z": "impedance Z", "Y": "admittance Y"}
 
@@ -131,7 +134,7 @@ def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measure
         if header is not None:
             notices.append(f"column names taken from comment line {header_line}")
     delim = detect_delimiter(body[0][1])
-    decimal_comma = uses_decimal_comma(body[0][1], delim)
+    decimal_comma = any(uses_decimal_comma(ln, delim) for _, ln in body)
     if decimal_comma:
         notices.append("decimal commas read as decimal points")
     if header is not None:
@@ -155,6 +158,7 @@ def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measure
             + (", weight" if lay.weights else ""))
     arr = numeric_rows(body, delim, ncols, path, decimal_comma=decimal_comma, what=what)
     linenos = [ln for ln, _ in body]
+    _check_thousands_separator(arr[:, 0], body, delim, path)
     check_rows(arr, linenos, path, magnitude_col=lay.cols[0] if lay.rep == "magphase" else None)
     a, b = arr[:, lay.cols[0]] * (lay.scale * lay.signs[0]), arr[:, lay.cols[1]] * lay.signs[1]
     if min(lay.signs) < 0:
@@ -187,7 +191,40 @@ def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measure
         notices.append(f"values scaled by {lay.scale:g} to {'ohm' if lay.quantity == 'Z' else 'S'} "
                        "as the header's unit says")
     Y = 1.0 / val if lay.quantity == "Z" else val
+    _check_passive(Y, linenos, path, notices)
     return finish(omega, Y, linenos, path, meta, notices, weights)
+
+
+def _check_thousands_separator(freq: np.ndarray, body: list[tuple[int, str]], delim, path: Path) -> None:
+    """Refuse a frequency that falls below its predecessor and is written like ``1.000``: a '.'
+    thousands separator read as a decimal point (1.000 Hz after 500 Hz, meaning 1000 Hz)."""
+    for i in np.flatnonzero(np.diff(freq) < 0) + 1:
+        cell = split_cells(body[i][1], delim)[0]
+        if _THOUSANDS.match(cell):
+            raise DataFormatError(
+                f"{path}:{body[i][0]}: frequency {cell!r} reads as {freq[i]:g}, below the {freq[i - 1]:g} of "
+                f"line {body[i - 1][0]}: is '.' a thousands separator ({cell} = {cell.replace('.', '')})? "
+                "Export the numbers without thousands separators")
+
+
+def _check_passive(Y: np.ndarray, linenos: list[int], path: Path, notices: list[str]) -> None:
+    """Re Z (equivalently Re Y) below zero is impossible for a passive transducer: refuse a file
+    where most points are so (a phase offset or sign convention, not the device), warn otherwise
+    (a calibration error at a few points), naming the first line."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Z = 1.0 / Y
+    bad = np.flatnonzero(Z.real < -_PASSIVE_TOL * np.abs(Z))
+    if not bad.size:
+        return
+    i = bad[0]
+    what = (f"{path}:{linenos[i]}: Re Z = {Z[i].real:.4g} ohm < 0 (|Z| = {abs(Z[i]):.4g} ohm, phase "
+            f"{math.degrees(np.angle(Z[i])):.4g} deg) at {bad.size} of {Y.size} points; a passive transducer "
+            "has Re Z >= 0 (phase within +-90 deg)")
+    if bad.size > Y.size / 2:
+        raise DataFormatError(what + ": check the phase column's sign, unit and reference")
+    msg = what + ": check the instrument's calibration there, or leave those points out (--omega-min/max)"
+    warnings.warn(msg, UserWarning, stacklevel=4)
+    notices.append(msg)
 
 
 def _phase_radians(ph: np.ndarray, lay: Layout, linenos: list[int], path: Path,
@@ -201,9 +238,14 @@ def _phase_radians(ph: np.ndarray, lay: Layout, linenos: list[int], path: Path,
             raise DataFormatError(f"{path}:{linenos[peak]}: phase {ph[peak]:g} is beyond 2π, so it "
                                   f"is not in radians as {source}; is it in degrees?")
         return ph
-    if ph.size > 20 and 0 < abs(ph[peak]) <= math.pi:
-        msg = (f"{path}: the phase is in degrees as {source}, but never exceeds π; "
-               "check that it is not in radians")
+    # a passive device's phase lies within +-90 deg (+-pi/2 rad): a degree column that never leaves
+    # +-pi is suspect when long; a short one is judged against +-pi/2 (5 % slack for noise)
+    limit = math.pi if ph.size > 20 else 1.05 * math.pi / 2
+    if 0 < abs(ph[peak]) <= limit:
+        bound = "π" if ph.size > 20 else "π/2 (+5 %), a passive device's range in radians,"
+        msg = (f"{path}:{linenos[peak]}: the phase is in degrees as {source}, but its largest magnitude, "
+               f"{ph[peak]:g}, does not exceed {bound} over {ph.size} points: check that it is not in "
+               "radians")
         warnings.warn(msg, UserWarning, stacklevel=4)
         notices.append(msg)
     return np.deg2rad(ph)

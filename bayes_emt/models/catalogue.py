@@ -198,20 +198,26 @@ def _check_turns(n_turns) -> float:
 
 
 @dataclass(frozen=True)
-class RingLadder(Term):
-    """Model NL: the coil coupled to ``n_rings`` resistive rings of a non-uniform core (eq. 41)."""
+class _Rings(Term):
+    """What the two ring models share: a coil term with ``n_rings`` rings of ``n_turns`` turns."""
 
     n_rings: int = 5
     n_turns: float = 480.0
-    id = "ring_ladder"
     coil = True
     physics = "eddy_current"
-    description = "non-uniform core cut into n rings, eddy current lumped per ring (eq. 41)"
     signature = _EDDY
 
     def __post_init__(self):
         object.__setattr__(self, "n_rings", _check_rings(self.n_rings))
         object.__setattr__(self, "n_turns", _check_turns(self.n_turns))
+
+
+@dataclass(frozen=True)
+class RingLadder(_Rings):
+    """Model NL: the coil coupled to ``n_rings`` resistive rings of a non-uniform core (eq. 41)."""
+
+    id = "ring_ladder"
+    description = "non-uniform core cut into n rings, eddy current lumped per ring (eq. 41)"
 
     @classmethod
     def default_params(cls, n_rings: int = 5, n_turns: float = 480.0):
@@ -242,20 +248,11 @@ class RingLadder(Term):
 
 
 @dataclass(frozen=True)
-class UniformRings(Term):
+class UniformRings(_Rings):
     """Model UL: a uniform core with an air gap, eddy currents lumped in equal-area rings (SPEC §2)."""
 
-    n_rings: int = 5
-    n_turns: float = 480.0
     id = "uniform_rings"
-    coil = True
-    physics = "eddy_current"
     description = "uniform core, air gap, eddy currents lumped in n equal-area rings (UL)"
-    signature = _EDDY
-
-    def __post_init__(self):
-        object.__setattr__(self, "n_rings", _check_rings(self.n_rings))
-        object.__setattr__(self, "n_turns", _check_turns(self.n_turns))
 
     @classmethod
     def default_params(cls, n_rings: int = 5, n_turns: float = 480.0):

@@ -29,6 +29,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from scipy import optimize
 
+from .._json import strict_json
 from ..models import Model
 from .receptance import Plant, rc_impedance
 from .stability import StabilityReport, assess_stability, instability_threshold, threshold_grid
@@ -39,16 +40,6 @@ __all__ = ["ShuntDesign", "ShuntEvaluation", "ShuntWarning", "closed_form_rc", "
 
 class ShuntWarning(UserWarning):
     """A shunt design is computed but means little (e.g. the plant has no resonance to damp)."""
-
-
-def _json_value(v):
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, dict):
-        return {k: _json_value(x) for k, x in v.items()}
-    if isinstance(v, list | tuple):
-        return [_json_value(x) for x in v]
-    return v
 
 
 @dataclass(frozen=True)
@@ -88,7 +79,7 @@ class ShuntEvaluation:
 
     def to_json_dict(self) -> dict:
         """Plain JSON types; non-finite numbers become null."""
-        return _json_value(asdict(self))
+        return strict_json(asdict(self))
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,7 @@ from ..models import Model
 from .foster import foster_realisation
 from .receptance import Plant
 
-__all__ = ["Realisation", "controller_tf", "realise_rc_shunt", "plant_state_space"]
+__all__ = ["Realisation", "controller_tf", "realise_rc_shunt", "plant_state_space", "sampled_loop_max_pole"]
 
 
 def controller_tf(Rs: float, Cs: float, R_in: float, K_in: float, K_out: float):
@@ -127,6 +127,19 @@ def _discrete_loop_poles(model, theta, R_in, K_in, K_out, bz, az, fs, delay):
     top = np.hstack([Ad - Bd @ Dk @ Cd, -Bd @ Ck])
     bottom = np.hstack([Bk @ Cd, Ak])
     return np.linalg.eigvals(np.vstack([top, bottom]))
+
+
+def sampled_loop_max_pole(model: Model, theta, Rs: float, Cs: float, *, R_in: float = 0.0996,
+                          K_in: float = 99.23, K_out: float = 0.9846, fs: float = 5000.0,
+                          delay_samples: int = 0) -> float:
+    """Largest closed-loop ``|z|`` of the exact sampled-data loop (ZOH plant, Tustin controller,
+    ``delay_samples`` of delay; module docstring): the loop is stable when it is below 1. The
+    stability part of :func:`realise_rc_shunt` alone (no attenuation), for checking many draws."""
+    b, a = controller_tf(Rs, Cs, R_in, K_in, K_out)
+    bz, az = signal.bilinear(b, a, fs)
+    poles = _discrete_loop_poles(model, np.asarray(theta, float), R_in, K_in, K_out, np.atleast_1d(bz),
+                                 np.atleast_1d(az), fs, int(delay_samples))
+    return float(np.max(np.abs(poles)))
 
 
 def realise_rc_shunt(model: Model, theta, Rs: float, Cs: float, *, R_in: float = 0.0996,

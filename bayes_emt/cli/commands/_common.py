@@ -1,12 +1,111 @@
-"""Argument helpers shared by sub-commands."""
+"""Argument helpers shared by sub-commands: option groups, checked number types, tables.
+
+The number types reject a bad value while the options are parsed, so the message names the
+option (``argument --seed: must be a non-negative integer, got '-1'``) instead of surfacing
+later from deep inside a library.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
 
 from ...models import AUGMENTATIONS, MODEL_NAMES
 
-__all__ = ["add_data_args", "add_model_args", "print_table", "model_from_args", "check_model_matches"]
+__all__ = ["add_data_args", "add_model_args", "print_table", "print_warnings", "seed", "int_at_least",
+           "positive_float", "finite_float", "nonnegative_float", "model_from_args", "check_model_matches",
+           "add_parser", "add_output_args", "note", "detail", "progress_of"]
+
+
+def seed(text: str) -> int:
+    """A random seed: a non-negative integer (numpy's ``SeedSequence`` and emcee refuse others)."""
+    try:
+        val = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text!r}") from None
+    if val < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text!r}")
+    return val
+
+
+def int_at_least(low: int, why: str = ""):
+    """An integer type for argparse that refuses values below ``low`` (``why`` explains the bound)."""
+
+    def parse(text: str) -> int:
+        try:
+            val = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {low}, got {text!r}") from None
+        if val < low:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {low}{why}, got {text!r}")
+        return val
+
+    parse.__name__ = f"integer >= {low}"
+    return parse
+
+
+def _float(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+
+
+def finite_float(text: str) -> float:
+    val = _float(text)
+    if not math.isfinite(val):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return val
+
+
+def positive_float(text: str) -> float:
+    val = _float(text)
+    if not (math.isfinite(val) and val > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text!r}")
+    return val
+
+
+def nonnegative_float(text: str) -> float:
+    val = _float(text)
+    if not (math.isfinite(val) and val >= 0):
+        raise argparse.ArgumentTypeError(f"must be a non-negative finite number, got {text!r}")
+    return val
+
+
+def add_parser(sub, name: str, *, help: str, description: str | None, examples: str):
+    """A sub-command parser whose ``--help`` ends with worked examples (``examples`` lines, each a
+    full command line) and keeps the description's own line breaks."""
+    return sub.add_parser(name, help=help, description=description,
+                          epilog="examples:\n" + "\n".join(f"  {ln}" for ln in examples.strip().splitlines()),
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
+def add_output_args(p: argparse.ArgumentParser, *, progress: bool = False) -> None:
+    """``--quiet`` / ``--verbose`` (mutually exclusive). ``progress``: the command has progress bars
+    (shown on a terminal unless ``--quiet``)."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--quiet", action="store_true",
+                   help=("no progress bars; " if progress else "")
+                   + "print the results only (no notes, no 'wrote' lines); errors and warnings still show")
+    g.add_argument("--verbose", action="store_true",
+                   help="also print the details: settings, intermediate values and the time taken")
+
+
+def note(args, *text) -> None:
+    """Print unless ``--quiet``: context around the results (headers, notes, files written)."""
+    if not getattr(args, "quiet", False):
+        print(*text)
+
+
+def detail(args, *text) -> None:
+    """Print only with ``--verbose``."""
+    if getattr(args, "verbose", False):
+        print(*text)
+
+
+def progress_of(args) -> bool | None:
+    """The ``progress`` argument of the library calls: off with ``--quiet``, else on a terminal."""
+    return False if getattr(args, "quiet", False) else None
 
 
 def add_data_args(p: argparse.ArgumentParser) -> None:
@@ -17,16 +116,16 @@ def add_data_args(p: argparse.ArgumentParser) -> None:
                    help="phase column unit, when the file does not say")
     p.add_argument("--quantity", choices=["Z", "Y"], default=None,
                    help="whether the file holds impedance Z or admittance Y, when it does not say")
-    p.add_argument("--omega-min", type=float, default=None, help="ignore points below (rad/s)")
-    p.add_argument("--omega-max", type=float, default=None, help="ignore points above (rad/s)")
+    p.add_argument("--omega-min", type=positive_float, default=None, help="ignore points below (rad/s)")
+    p.add_argument("--omega-max", type=positive_float, default=None, help="ignore points above (rad/s)")
 
 
 def add_model_args(p: argparse.ArgumentParser, *, required: bool = True) -> None:
     p.add_argument("--model", required=required, metavar="SPEC",
                    help=f"model spec: a coil model ({', '.join(MODEL_NAMES)}, SPEC §2) optionally + physics "
                         f"terms of SPEC §7 ({', '.join(AUGMENTATIONS)}), e.g. NL+winding_capacitance")
-    p.add_argument("--rings", type=int, default=None, help="rings for NL/UL (default 5)")
-    p.add_argument("--n-turns", type=float, default=480.0, help="coil turns N (NL/UL; default 480)")
+    p.add_argument("--rings", type=int_at_least(1), default=None, help="rings for NL/UL (default 5)")
+    p.add_argument("--n-turns", type=positive_float, default=480.0, help="coil turns N (NL/UL; default 480)")
 
 
 def model_from_args(args):
@@ -63,3 +162,9 @@ def print_table(rows: list[tuple], header: tuple) -> None:
     print("  ".join("-" * w for w in widths))
     for r in rows:
         print(fmt.format(*(str(c) for c in r)))
+
+
+def print_warnings(warnings_list, *, indent: str = "") -> None:
+    """Print a result's ``warnings`` (``{"code", "message"}`` records), one per line."""
+    for w in warnings_list:
+        print(f"{indent}WARNING [{w['code']}]: {w['message']}")

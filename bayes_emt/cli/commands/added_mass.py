@@ -8,19 +8,37 @@ consistent with one set of shared parameters.
 
 from __future__ import annotations
 
-from ._common import add_data_args, add_model_args, model_from_args, print_table
+from ..paths import check_outputs
+from ._common import (
+    add_data_args,
+    add_model_args,
+    add_output_args,
+    add_parser,
+    detail,
+    finite_float,
+    model_from_args,
+    note,
+    print_table,
+)
+
+EXAMPLES = """\
+bayes-emt added-mass free_air.zma with_100g.zma --delta-m 0.100 --model UD
+bayes-emt added-mass bench.zma bench_minus.zma --delta-m -0.645 --model NL --json physical.json
+bayes-emt added-mass free.txt loaded.txt --delta-m 0.1 --model UD --phase-unit rad --omega-max 6283
+"""
 
 
 def register(sub) -> None:
-    p = sub.add_parser("added-mass", help="physical m, c, k, phi from an added-mass pair (joint fit)",
-                       description=__doc__.split("\n\n", 1)[1])
+    p = add_parser(sub, "added-mass", help="physical m, c, k, phi from an added-mass pair (joint fit)",
+                   description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
     p.add_argument("base", help="recording without the added mass")
     p.add_argument("loaded", help="recording with the added mass")
-    p.add_argument("--delta-m", type=float, required=True,
+    p.add_argument("--delta-m", type=finite_float, required=True,
                    help="mass added in LOADED [kg] (negative: removed)")
     add_model_args(p)
     add_data_args(p)
     p.add_argument("--json", default=None, help="write the result as JSON here")
+    add_output_args(p)
     p.set_defaults(func=run)
 
 
@@ -29,6 +47,7 @@ def run(args) -> int:
     from ...io import read_measurement
     from ...io.paramfile import write_json
 
+    check_outputs([("--json", args.json)], [("BASE", args.base), ("LOADED", args.loaded)])
     opts = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity}
     base = read_measurement(args.base, **opts).select(args.omega_min, args.omega_max)
     loaded = read_measurement(args.loaded, **opts).select(args.omega_min, args.omega_max)
@@ -37,7 +56,10 @@ def run(args) -> int:
     two_se = r.two_fit.get("stderr", {})
     rows = [(k, f"{r.values[k]:.5g}", f"{r.stderr[k]:.2g}", f"{r.two_fit[k]:.5g}",
              f"{two_se.get(k, float('nan')):.2g}", PHYSICAL_UNITS[k]) for k in PHYSICAL_NAMES]
-    print(f"added mass {args.delta_m:+g} kg, model {model.label}, {base.n_points} + {loaded.n_points} points")
+    note(args, f"added mass {args.delta_m:+g} kg, model {model.label}, "
+               f"{base.n_points} + {loaded.n_points} points")
+    detail(args, f"base {base.source}: {base.f_hz[0]:.4g}..{base.f_hz[-1]:.4g} Hz; "
+                 f"loaded {loaded.source}: {loaded.f_hz[0]:.4g}..{loaded.f_hz[-1]:.4g} Hz")
     print_table(rows, ("parameter", "joint fit", "std error", "two fits", "std error", "unit"))
     mech = [(n, f"{r.base[n]:.5g}", f"{r.separate['base'][n]:.5g}", f"{r.loaded[n]:.5g}",
              f"{r.separate['loaded'][n]:.5g}", model.params[n].unit) for n in ("zeta", "omega0", "phi")]
@@ -51,5 +73,5 @@ def run(args) -> int:
               "errors as lower bounds")
     if args.json:
         write_json(args.json, r.to_json_dict())
-        print(f"wrote {args.json}")
+        note(args, f"wrote {args.json}")
     return 0

@@ -14,16 +14,22 @@ Exit status 0, or 1 when a result is flagged (see the warnings), 2 on a user err
 
 from __future__ import annotations
 
-import argparse
 import math
 from pathlib import Path
 
-from ._common import add_data_args, print_table
+from ._common import add_data_args, add_output_args, add_parser, detail, note, print_table
+
+EXAMPLES = """\
+bayes-emt compare speaker.zma --models I,UD,NL --json evidence.json --plot figures/
+bayes-emt compare bench.csv --models NL --rings 1-7 --json rings.json
+bayes-emt compare speaker.zma --models UD,UD+winding_capacitance --methods laplace,bridge --max-steps 5000
+(re-run with the same --json to resume: finished models are reused)
+"""
 
 
 def register(sub) -> None:
-    p = sub.add_parser("compare", help="model comparison by evidence (nested + bridge sampling)",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_parser(sub, "compare", help="model comparison by evidence (nested + bridge sampling)",
+                   description=__doc__, examples=EXAMPLES)
     p.add_argument("data", help="measurement file")
     add_data_args(p)
     p.add_argument("--models", default="I,II,III,UD,UL,NL",
@@ -42,7 +48,7 @@ def register(sub) -> None:
     p.add_argument("--walks", type=int, default=None, help="random-walk steps per new point (default 100)")
     p.add_argument("--nested-repeats", type=int, default=1, help="nested runs per model (default 1)")
     p.add_argument("--max-steps", type=int, default=None, help="emcee step budget (default 20000)")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_output_args(p, progress=True)
     p.set_defaults(func=run)
 
 
@@ -88,7 +94,7 @@ def run(args) -> int:
                             quantity=args.quantity).select(args.omega_min, args.omega_max)
     if args.json and Path(args.json).resolve() == Path(args.data).resolve():
         raise ValueError(f"{args.json}: the results file must not be the data file")
-    print(f"comparing {len(specs)} model(s) on {meas.source} ({meas.n_points} points, "
+    note(args, f"comparing {len(specs)} model(s) on {meas.source} ({meas.n_points} points, "
           f"{meas.omega[0]:.4g}..{meas.omega[-1]:.4g} rad/s), seed {args.seed}, methods {', '.join(methods)}")
 
     def show(m, reused):
@@ -97,6 +103,11 @@ def run(args) -> int:
                        for k, v in m.by_method.items() if v.get("log_evidence") is not None)
         print(f"  {m.name}: log Z = {m.log_evidence:.2f} +- {m.log_evidence_err:.2f} nats ({by}; "
               f"{'reused' if reused else f'{m.seconds_total:.0f} s'})", flush=True)
+        detail(args, f"    {m.n_params} parameters; likelihood calls "
+                     + ", ".join(f"{k} {v}" for k, v in m.calls.items())
+                     + "; seconds " + ", ".join(f"{k} {v:.1f}" for k, v in m.seconds.items()))
+        for w in m.warnings:
+            detail(args, f"    warning: {w}")
 
     cmp = compare_models(meas, specs, settings=settings, results=args.json, workdir=args.work,
                          progress=not args.quiet, on_model=show)
@@ -110,7 +121,7 @@ def run(args) -> int:
         from ...io.paramfile import write_json
 
         write_json(args.json, cmp.to_json_dict())
-        print(f"wrote {args.json}")
+        note(args, f"wrote {args.json}")
     if args.plot:
         from ...plotting import save_figure
         from ...plotting.evidence import plot_evidence
@@ -118,7 +129,7 @@ def run(args) -> int:
         folder = Path(args.plot)
         folder.mkdir(parents=True, exist_ok=True)
         path = save_figure(plot_evidence(cmp), folder / "evidence.png")
-        print(f"wrote {path}")
+        note(args, f"wrote {path}")
     assert isinstance(cmp, Comparison)
     return 1 if cmp.all_warnings() else 0
 

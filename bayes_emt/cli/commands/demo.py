@@ -2,7 +2,9 @@
 
 Fits the six models, chooses the NL ring count by Hankel singular values, designs the optimal RC
 shunt per model and evaluates each on the best model, then samples the posterior of NL(5) and
-writes the DataTree, JSON summaries and plots to ``--out``.
+writes the DataTree, JSON summaries and plots to ``--out`` (checked before any work, and never over
+the ``--data`` file). Each fit's warnings (:mod:`bayes_emt.estimation.adequacy`) are printed and go
+into ``fits.json``; the NL fit's, which start the walkers, into ``posterior.json`` too.
 """
 
 from __future__ import annotations
@@ -11,15 +13,21 @@ import time
 import warnings
 from pathlib import Path
 
-from ._common import print_table
+from ..paths import check_outputs
+from ._common import int_at_least, print_table, print_warnings, seed
+
+#: what the demo writes into its --out folder
+OUTPUTS = ("fits.json", "hankel.json", "shunts.json", "posterior.h5", "posterior.nc", "posterior.json",
+           "posterior_corner.png", "posterior_bode.png")
 
 
 def register(sub) -> None:
     p = sub.add_parser("demo", help="the whole pipeline on the bundled data (simulated from Table 5)")
     p.add_argument("--data", default=None, help="measurement file instead of the bundled dataset")
     p.add_argument("--out", default="bayes_emt_demo", help="output folder (default ./bayes_emt_demo)")
-    p.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
-    p.add_argument("--max-steps", type=int, default=20000, help="sampler step budget (default 20000)")
+    p.add_argument("--seed", type=seed, default=0, help="sampler seed, a non-negative integer (default 0)")
+    p.add_argument("--max-steps", type=int_at_least(1), default=20000,
+                   help="sampler step budget (default 20000)")
     p.add_argument("--no-sample", action="store_true", help="skip the posterior (deterministic part only)")
     p.set_defaults(func=run)
 
@@ -38,6 +46,7 @@ def run(args) -> int:
     from ...shunt import design_rc_shunt, evaluate_rc_shunt
 
     out = Path(args.out)
+    check_outputs(inputs=[("--data", args.data)], folders=[("--out", out, OUTPUTS)])
     out.mkdir(parents=True, exist_ok=True)
     meas = read_measurement(args.data) if args.data else load_paper_bench()
     _section("data")
@@ -60,6 +69,10 @@ def run(args) -> int:
     print_table(rows, ("model", "rms rel. resid.", "zeta [1]", "omega0 [rad/s]", "phi [N/A/kg^.5]",
                        "R0 [ohm]", "time [s]"))
     print(f"all six fits: {time.perf_counter() - t_all:.1f} s")
+    for fit in fits.values():
+        if fit.warnings:
+            print(f"{fit.model.label}:")
+            print_warnings(fit.warnings, indent="  ")
     write_json(out / "fits.json", {k: f.to_json_dict() for k, f in fits.items()})
     best = min(fits, key=lambda k: fits[k].rms_rel_residual)
     if truth:
@@ -97,7 +110,9 @@ def run(args) -> int:
 
         model = build_model("NL", rings=rc.rings)
         _section(f"posterior of {model.label} by emcee (seed {args.seed})")
-        fit = fits["NL"] if rc.rings == 5 else None
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fit = fits["NL"] if rc.rings == 5 else fit_admittance(meas, model)
         post = sample_posterior(meas, model, fit=fit, seed=args.seed, max_steps=args.max_steps,
                                 checkpoint=out / "posterior.h5", overwrite=True)
         print(("converged" if post.converged else "NOT CONVERGED: " + post.message)
@@ -113,7 +128,10 @@ def run(args) -> int:
         print_table(rows, ("parameter", "median", "5 %", "95 %", "ESS", "tau [steps]", "unit",
                            "truth in 90 %"))
         post.save(out / "posterior.nc")
-        write_json(out / "posterior.json", post.to_json_dict())
+        warns = list(fit.warnings)
+        if not post.converged:
+            warns.append({"code": "not_converged", "message": post.message})
+        write_json(out / "posterior.json", {**post.to_json_dict(), "warnings": warns})
         for name, fig in (("corner", plot_corner(post, names=list(post.names[:4]) + ["R5", "sigma_rel"])),
                           ("bode", plot_bode_bands(post))):
             save_figure(fig, out / f"posterior_{name}.png", dpi=100)

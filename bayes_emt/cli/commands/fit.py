@@ -1,19 +1,51 @@
-"""``bayes-emt fit DATA --model M [--rings N] [--json OUT]``: automatic initial estimate and
-two-step weighted least squares (SPEC §3.1–3.2); prints name, value, unit and standard error of
-every parameter, the rms relative residual and chi², and writes
-:meth:`~bayes_emt.estimation.results.FitResult.to_json_dict` as JSON (atomically)."""
+"""``bayes-emt fit DATA --model M [--rings N] [--procedure polished|paper] [--json OUT]``: automatic
+initial estimate and two-step weighted least squares (SPEC §3.1–3.2); prints name, value, unit and
+standard error of every parameter, the rms relative residual and chi², the fit's warnings (model
+inadequate, parameter at a bound, parameters not identifiable, resonance outside the data:
+:mod:`bayes_emt.estimation.adequacy`), and writes
+:meth:`~bayes_emt.estimation.results.FitResult.to_json_dict` as JSON (atomically; never over the
+measurement file).
+
+``--procedure paper`` stops after the paper's two steps (``fit_admittance(..., polish=False)``);
+the default adds the relative-residual polish. Both are run, and the R0 each gives is printed and
+written (``R0_by_procedure``): when the coil model misses physics the polish moves R0, and a
+negative-resistance shunt's stability depends on R0."""
 
 from __future__ import annotations
 
-from ._common import add_data_args, add_model_args, model_from_args, print_table
+from ..paths import check_outputs
+from ._common import (
+    add_data_args,
+    add_model_args,
+    add_output_args,
+    add_parser,
+    detail,
+    model_from_args,
+    note,
+    print_table,
+    print_warnings,
+)
+
+EXAMPLES = """\
+bayes-emt fit speaker.zma --model UD
+bayes-emt fit speaker.zma --model NL --rings 5 --json nl_fit.json
+bayes-emt fit lcr_export.csv --model UD --freq-unit hz --phase-unit rad --omega-min 60
+bayes-emt fit speaker.zma --model UD+winding_capacitance --verbose
+"""
 
 
 def register(sub) -> None:
-    p = sub.add_parser("fit", help="deterministic fit: automatic initial estimate + two-step least squares")
+    p = add_parser(sub, "fit", help="deterministic fit: automatic initial estimate + two-step least squares",
+                   description=__doc__, examples=EXAMPLES)
     p.add_argument("data", help="measurement file (.zma, CSV/TSV with header, .s1p)")
     add_model_args(p)
     add_data_args(p)
+    p.add_argument("--procedure", choices=["polished", "paper"], default="polished",
+                   help="polished (default): the paper's two steps, then all parameters with relative "
+                        "residuals; paper: the paper's two steps only (R0 and omega0 from the "
+                        "1/s-weighted step)")
     p.add_argument("--json", default=None, help="write the result as JSON here")
+    add_output_args(p)
     p.set_defaults(func=run)
 
 
@@ -26,26 +58,35 @@ def run(args) -> int:
     from ...io import read_measurement
     from ...io.paramfile import write_json
 
+    check_outputs([("--json", args.json)], [("DATA", args.data)])
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
                             quantity=args.quantity).select(args.omega_min, args.omega_max)
     model = model_from_args(args)
-    fit = fit_admittance(meas, model)
+    fits = {name: fit_admittance(meas, model, polish=(name == "polished")) for name in ("polished", "paper")}
+    fit = fits[args.procedure]
+    r0 = {name: float(f.parameters["R0"]) for name, f in fits.items()}
     se = fit.stderr
     rows = [(s.name, format_value(v), s.unit, format_value(se[s.name]))
             for s, v in zip(model.params, fit.theta, strict=True)]
-    print(f"model {model.label} on {meas.source}: {meas.n_points} points, "
-          f"{meas.omega[0]:.4g}..{meas.omega[-1]:.4g} rad/s")
+    note(args, f"model {model.label} on {meas.source}: {meas.n_points} points, "
+         f"{meas.omega[0]:.4g}..{meas.omega[-1]:.4g} rad/s ({meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz); "
+         f"procedure: {args.procedure}")
     print_table(rows, ("parameter", "value", "unit", "std error"))
-    print(f"rms relative residual {fit.rms_rel_residual:.4g}   chi2 {fit.chi2:.4g}   "
-          f"({fit.info['seconds']:.2f} s)")
-    print(f"initial estimate: {fit.info['initial']['path']}")
+    print(f"rms relative residual {fit.rms_rel_residual:.4g}   chi2 {fit.chi2:.4g}")
+    detail(args, f"fit time {fit.info['seconds']:.2f} s; initial estimate: {fit.info['initial']['path']}; "
+                 f"optimiser: {fit.message}")
     if not fit.success:
         print(f"note: the optimiser did not converge ({fit.message})")
     if fit.cov_z is None:
         print("note: the Jacobian is rank-deficient; no standard errors")
-    if fit.info.get("at_prior_bound"):
-        print(f"note: at the edge of the physical range: {', '.join(fit.info['at_prior_bound'])}")
+    print_warnings(fit.warnings)
+    diff = r0["polished"] - r0["paper"]
+    print(f"by procedure: R0 polished {r0['polished']:.5g} ohm, paper's two steps {r0['paper']:.5g} ohm "
+          f"(difference {diff:+.4g} ohm, {100 * diff / r0['paper']:+.2g} %)")
+    if abs(diff) > 0.01 * abs(r0["paper"]):
+        print("note: the procedures disagree on R0 by more than 1 %: the coil model may miss physics; a "
+              "negative-resistance shunt's stability depends on R0 (shunt --posterior reports by how much)")
     if args.json:
-        write_json(args.json, fit.to_json_dict())
-        print(f"wrote {args.json}")
+        write_json(args.json, {**fit.to_json_dict(), "procedure": args.procedure, "R0_by_procedure": r0})
+        note(args, f"wrote {args.json}")
     return 0

@@ -9,13 +9,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._common import add_data_args
+from ._common import add_data_args, add_output_args, add_parser, detail, note
+
+EXAMPLES = """\
+bayes-emt info speaker.zma
+bayes-emt info lcr_export.csv --freq-unit hz --phase-unit rad
+bayes-emt info analyser.s1p --verbose
+"""
 
 
 def register(sub) -> None:
-    p = sub.add_parser("info", help="what a measurement file holds (points, ranges, resonance)")
+    p = add_parser(sub, "info", help="what a measurement file holds (points, ranges, resonance)",
+                   description=__doc__, examples=EXAMPLES)
     p.add_argument("data", help="measurement file (.zma, CSV/TSV with header, .s1p)")
     add_data_args(p)
+    add_output_args(p)
     p.set_defaults(func=run)
 
 
@@ -30,10 +38,12 @@ def run(args) -> int:
            "dbphase": "dB and phase"}.get(m.get("representation"), m.get("representation"))
     units = "; ".join(f"{k.replace('_', ' ')} {m.get(k)} (from {v})"
                       for k, v in m.get("units_from", {}).items())
-    print(f"file        {meas.source}  ({m.get('format')})")
-    print(f"read as     {m.get('quantity')}, {rep}" + (f"; {units}" if units else ""))
-    for note in m.get("notices", ()):
-        print(f"notice      {note}")
+    note(args, f"file        {meas.source}  ({m.get('format')})")
+    note(args, f"read as     {m.get('quantity')}, {rep}" + (f"; {units}" if units else ""))
+    for key in sorted(k for k in m if k not in ("notices", "units_from")):
+        detail(args, f"meta        {key}: {m[key]}")
+    for text in m.get("notices", ()):
+        print(f"notice      {text}")
     print(f"points      {meas.n_points}")
     print(f"frequency   {meas.f_hz[0]:.5g} .. {meas.f_hz[-1]:.5g} Hz  "
           f"({meas.omega[0]:.5g} .. {meas.omega[-1]:.5g} rad/s)")

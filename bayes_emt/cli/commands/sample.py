@@ -6,32 +6,59 @@ both recordings of an added-mass pair are sampled jointly (shared m, c, k, φ, R
 run its own noise scales): the table then starts with the physical m [kg], c [N s/m], k [N/m]
 and φ [N/A]. Exit status 0 when the run
 converged, 1 when the step budget ran out first (the result is then flagged, not trusted),
-2 on a user error.
+2 on a user error. Every output path is checked before any work (:mod:`bayes_emt.cli.paths`); the
+JSON summary carries the least-squares fit's ``warnings`` (the start of the walkers), plus
+``not_converged`` when the budget ran out.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
-from ._common import add_data_args, add_model_args, model_from_args, print_table
+from ..paths import check_outputs
+from ._common import (
+    add_data_args,
+    add_model_args,
+    add_output_args,
+    detail,
+    finite_float,
+    int_at_least,
+    model_from_args,
+    note,
+    print_table,
+    print_warnings,
+    seed,
+)
+
+EXAMPLES = """\
+  bayes-emt sample speaker.zma --model UD --out ud.nc --json ud.json --plot figures/
+  bayes-emt sample speaker.zma --model UD --out ud.nc --resume          (continue a stopped run)
+  bayes-emt sample speaker.zma --model NL --likelihood student --nu sample --max-steps 50000
+  bayes-emt sample free.zma --model UD --loaded with_100g.zma --delta-m 0.100 --out pair.nc
+  bayes-emt sample speaker.zma --model UD --priors priors.toml --verbose
+"""
+
+DEFAULT_NU = 4.0
 
 
-def _nu(text: str) -> float | None:
+def _nu(text: str) -> float | str:
     if text.lower() in ("sample", "sampled", "free"):
-        return None
+        return "sample"
     try:
         val = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a positive number or 'sample', got {text!r}") from None
-    if not val > 0:
+    if not (val > 0 and math.isfinite(val)):
         raise argparse.ArgumentTypeError(f"degrees of freedom must be positive, got {text!r}")
     return val
 
 
 def register(sub) -> None:
     p = sub.add_parser("sample", help="posterior by emcee with convergence diagnostics (DataTree out)",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=__doc__, epilog="examples:\n" + EXAMPLES,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("data", help="measurement file")
     add_model_args(p)
     add_data_args(p)
@@ -42,23 +69,24 @@ def register(sub) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue the run in the checkpoint (same data, model, priors and seed)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing checkpoint")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--max-steps", type=int, default=20000, help="step budget (default 20000)")
+    p.add_argument("--seed", type=seed, default=0, help="random seed, a non-negative integer (default 0)")
+    p.add_argument("--max-steps", type=int_at_least(1), default=20000, help="step budget (default 20000)")
     p.add_argument("--likelihood", choices=["gaussian", "student"], default="gaussian",
                    help="noise distribution of the real and imaginary parts (student: robust to outliers)")
-    p.add_argument("--nu", type=_nu, default=4.0,
-                   help="Student-t degrees of freedom, or 'sample' to sample it (default 4)")
+    p.add_argument("--nu", type=_nu, default=None,
+                   help="Student-t degrees of freedom, or 'sample' to sample it (default 4; "
+                        "with --likelihood student only)")
     p.add_argument("--priors", default=None, metavar="FILE",
                    help="TOML/JSON prior overrides, e.g. [R0] dist = \"lognormal\" median = 2.6 "
                         "sigma_log = 0.05")
     p.add_argument("--loaded", default=None, metavar="FILE",
                    help="second recording of an added-mass pair (DATA is then the base run): sample both "
                         "jointly for the physical m, c, k, phi_raw")
-    p.add_argument("--delta-m", type=float, default=None, metavar="KG",
+    p.add_argument("--delta-m", type=finite_float, default=None, metavar="KG",
                    help="mass added in the --loaded recording [kg] (negative: removed)")
     p.add_argument("--json", default=None, metavar="OUT", help="write the summary as JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write corner, Bode-band and trace PNGs here")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_output_args(p, progress=True)
     p.set_defaults(func=run)
 
 
@@ -67,9 +95,10 @@ def run(args) -> int:
 
     from ...added_mass.fit import PHYSICAL_NAMES
     from ...errors import DataFormatError
+    from ...estimation.fitting import fit_admittance
     from ...inference.likelihood import noise_param_set
     from ...inference.priors import apply_priors
-    from ...inference.sampling import sample_posterior
+    from ...inference.sampling import check_checkpoint, sample_posterior
     from ...io import read_measurement
     from ...io.paramfile import write_json
     from ...io.priorfile import read_prior_file
@@ -78,14 +107,25 @@ def run(args) -> int:
     if (args.loaded is None) != (args.delta_m is None):
         raise ValueError("--loaded and --delta-m go together: the added-mass pair needs the second "
                          "recording and the mass added to it [kg]")
+    if args.nu is not None and args.likelihood != "student":
+        raise ValueError(f"--nu {args.nu} applies to --likelihood student only (the Gaussian likelihood "
+                         "has no degrees of freedom); add --likelihood student or drop --nu")
+    nu = None if args.nu == "sample" else DEFAULT_NU if args.nu is None else args.nu
+    if args.loaded is not None and nu is None:
+        raise ValueError("--nu sample is not offered with --loaded; give a number of degrees of freedom")
+    model = model_from_args(args)
+    stem = model.label.replace("(", "").replace(")", "") + ("_pair" if args.loaded is not None else "")
+    out = Path(args.out or f"{Path(args.data).stem}_{stem}.nc")
+    ckpt = Path(args.checkpoint) if args.checkpoint else out.with_suffix(".h5")
+    plots = ("corner", "trace") + (("bode",) if args.loaded is None else ())
+    check_outputs([("--out", out), ("--checkpoint", ckpt), ("--json", args.json)],
+                  [("DATA", args.data), ("--loaded", args.loaded), ("--priors", args.priors)],
+                  folders=[("--plot", args.plot, [f"posterior_{stem}_{n}.png" for n in plots])])
+    check_checkpoint(ckpt, resume=args.resume, overwrite=args.overwrite)
     opts = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity}
     meas = read_measurement(args.data, **opts).select(args.omega_min, args.omega_max)
     loaded = None if args.loaded is None else read_measurement(args.loaded, **opts).select(args.omega_min,
                                                                                           args.omega_max)
-    model = model_from_args(args)
-    nu = args.nu if args.likelihood == "student" else 4.0
-    if loaded is not None and nu is None:
-        raise ValueError("--nu sample is not offered with --loaded; give a number of degrees of freedom")
     noise = noise_param_set(args.likelihood, nu)
     physical = None
     if args.priors:
@@ -103,16 +143,23 @@ def run(args) -> int:
                                           else f"{args.priors}: {name}: {msg}") from None
             physical = JointModel(model, args.delta_m).physical.with_priors(phys)
         model, noise = apply_priors(model, overrides, noise_params=noise, where=str(args.priors))
-    stem = model.label.replace("(", "").replace(")", "") + ("_pair" if loaded is not None else "")
-    out = Path(args.out or f"{Path(args.data).stem}_{stem}.nc")
-    ckpt = Path(args.checkpoint) if args.checkpoint else out.with_suffix(".h5")
-    if ckpt.resolve() == out.resolve():
-        raise ValueError(f"{out}: the checkpoint and the output must be different files")
+    # the least-squares fit under these priors: the walkers' start, and the warnings it carries
+    fit, warns = None, []
+    if loaded is None:
+        fit = fit_admittance(meas, model)
+        warns = list(fit.warnings)
+    else:
+        for label, m in (("base run", meas), ("loaded run", loaded)):
+            warns += [{"code": w["code"], "message": f"{label}: {w['message']}"}
+                      for w in fit_admittance(m, model).warnings]
+    for spec in list(model.params) + list(noise):
+        detail(args, f"prior {spec.name:10s} {spec.prior.to_dict()} [{spec.unit}]")
+    detail(args, f"checkpoint {ckpt}, seed {args.seed}, budget {args.max_steps} steps")
     common = {"seed": args.seed, "max_steps": args.max_steps, "checkpoint": ckpt, "resume": args.resume,
               "overwrite": args.overwrite, "progress": False if args.quiet else None,
               "likelihood": args.likelihood, "nu": nu, "noise_params": noise}
     if loaded is None:
-        post = sample_posterior(meas, model, **common)
+        post = sample_posterior(meas, model, fit=fit, **common)
         print(f"model {model.label}, {meas.n_points} points, likelihood {post.likelihood.describe()}")
     else:
         from ...added_mass.posterior import sample_added_mass
@@ -125,6 +172,10 @@ def run(args) -> int:
           f"burn {post.burn}, thin {post.thin}, {post.draws.shape[0] * post.draws.shape[1]} draws kept, "
           f"acceptance {post.acceptance:.2f}, {post.wall_time:.1f} s")
     print(("CONVERGED: " if post.converged else "NOT CONVERGED: ") + post.message)
+    for v in post.history:
+        detail(args, f"check at step {v['step']}: tau_max {v['tau_max']:.0f}, "
+                     f"chain {v['n_over_tau']:.1f} tau, tau change {v['tau_change']:.3g}, "
+                     f"min ESS {v['ess_min']:.0f}")
     rows = [(r["name"], f"{r['median']:.5g}", f"{r['q05']:.5g}", f"{r['q95']:.5g}", f"{r['ess']:.0f}",
              f"{r['tau']:.0f}", r["unit"]) for r in post.summary_rows()]
     units = post.derived_units()
@@ -132,22 +183,24 @@ def run(args) -> int:
         q = np.quantile(vals, [0.5, 0.05, 0.95])
         rows.append((f"{name} (derived)", f"{q[0]:.5g}", f"{q[1]:.5g}", f"{q[2]:.5g}", "", "", units[name]))
     print_table(rows, ("parameter", "median", "5 %", "95 %", "ESS", "tau", "unit"))
+    if not post.converged:
+        warns.append({"code": "not_converged", "message": post.message})
+    print_warnings(warns)
     post.save(out)
-    print(f"wrote {out} (ArviZ DataTree; checkpoint {ckpt})")
+    note(args, f"wrote {out} (ArviZ DataTree; checkpoint {ckpt})")
     if args.json:
-        write_json(args.json, post.to_json_dict())
-        print(f"wrote {args.json}")
+        write_json(args.json, {**post.to_json_dict(), "warnings": warns})
+        note(args, f"wrote {args.json}")
     if args.plot:
         from ...plotting import save_figure
         from ...plotting.posterior import plot_bode_bands, plot_corner, plot_trace
 
         folder = Path(args.plot)
         folder.mkdir(parents=True, exist_ok=True)
-        plots = (("corner", plot_corner), ("trace", plot_trace))
-        if loaded is None:
-            plots += (("bode", plot_bode_bands),)
-        for name, make in plots:
+        makers = {"corner": plot_corner, "trace": plot_trace, "bode": plot_bode_bands}
+        for name in plots:
+            make = makers[name]
             path = folder / f"posterior_{stem}_{name}.png"
             save_figure(make(post), path, dpi=100)
-            print(f"wrote {path}")
+            note(args, f"wrote {path}")
     return 0 if post.converged else 1

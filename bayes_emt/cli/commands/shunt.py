@@ -1,8 +1,14 @@
-"""``bayes-emt shunt``: H∞-optimal RC shunt, stability, cross-model evaluation, digital realisation.
+"""``bayes-emt shunt``: H∞-optimal RC shunt, stability, cross-model evaluation, digital realisation;
+with ``--posterior``, shunt design under uncertainty.
 
-The model is taken from the parameter file (``{"model", "rings"?, "parameters"}``, as ``fit --json``
-writes); ``--model`` is optional and, when given, must name the file's model (a check, not an
-override). ``--r-in/--k-in/--k-out/--fs/--delay`` require ``--implement``.
+``--params P.json`` alone: the design for one parameter file (``{"model", "rings"?, "parameters"}``,
+as ``fit --json`` writes); ``--model`` is optional and, when given, must name the file's model (a
+check, not an override). ``--posterior RUN.nc`` (repeatable: a mixture of models, weighted by
+``--log-evidence`` or ``--compare``, else equally): every posterior draw's optimal shunt, the
+nominal shunt (designed at ``--params`` if given, else at the posterior median) on every draw,
+and a robust shunt minimising ``--risk`` subject to P(unstable) <= ``--epsilon``, chosen on half
+the draws and reported on the other half. ``--r-in/--k-in/--k-out/--fs/--delay`` require
+``--implement`` (with ``--posterior``: the sampled-data controller enters every draw's stability).
 """
 
 from __future__ import annotations
@@ -10,16 +16,53 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ._common import check_model_matches
+from ..paths import check_outputs
+from ._common import (
+    add_output_args,
+    add_parser,
+    check_model_matches,
+    detail,
+    finite_float,
+    int_at_least,
+    note,
+    positive_float,
+    seed,
+)
+
+EXAMPLES = """\
+bayes-emt shunt --params nl_fit.json
+bayes-emt shunt --params ud_fit.json --evaluate-on nl_fit.json --json ud_shunt.json
+bayes-emt shunt --params nl_fit.json --implement --fs 5000 --delay 1 --plot figures/
+bayes-emt shunt --posterior nl.nc --params nl_fit.json --risk cvar --epsilon 1e-3 --json robust.json
+bayes-emt shunt --posterior nl.nc --posterior ud.nc --compare compare.json --plot figures/
+"""
 
 TABLE7 = {"r_in": 0.0996, "k_in": 99.23, "k_out": 0.9846, "fs": 5000.0}
 
 
 def register(sub) -> None:
-    p = sub.add_parser("shunt", help="optimal RC shunt for a parameter file (SPEC §4)",
-                       description=__doc__.split("\n\n", 1)[1])
-    p.add_argument("--params", required=True, metavar="P.json",
-                   help='parameter file {"model", "rings"?, "parameters"} (as fit --json writes)')
+    p = add_parser(sub, "shunt", help="optimal RC shunt for a parameter file, or robust over posteriors "
+                   "(SPEC §4)", description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
+    p.add_argument("--params", default=None, metavar="P.json",
+                   help='parameter file {"model", "rings"?, "parameters"} (as fit --json writes); with '
+                        "--posterior: the point estimate of the nominal design")
+    p.add_argument("--posterior", action="append", default=None, metavar="RUN.nc",
+                   help="posterior file (sample --out); repeat for a mixture of models")
+    p.add_argument("--risk", choices=["cvar", "mean", "worst"], default="cvar",
+                   help="risk measure of the attenuation over draws (default cvar)")
+    p.add_argument("--alpha", type=finite_float, default=0.9,
+                   help="CVaR level (default 0.9: the worst 10 %%)")
+    p.add_argument("--epsilon", type=finite_float, default=1e-3,
+                   help="bound on P(unstable) per model (default 1e-3)")
+    p.add_argument("--draws", type=int_at_least(2), default=1000, help="posterior draws used (default 1000)")
+    p.add_argument("--seed", type=seed, default=0,
+                   help="seed of the draw choice and the half split (default 0)")
+    p.add_argument("--confidence", type=finite_float, default=0.95,
+                   help="level of the Clopper-Pearson interval on P(unstable) (default 0.95)")
+    p.add_argument("--log-evidence", type=finite_float, action="append", default=None, metavar="LZ",
+                   help="log evidence [nats] of each --posterior, in order (mixture weights)")
+    p.add_argument("--compare", default=None, metavar="C.json",
+                   help="bayes-emt compare JSON with the models' log evidences (mixture weights)")
     p.add_argument("--model", default=None, metavar="SPEC",
                    help="optional check: the model (spec) the parameter file must hold")
     p.add_argument("--json", default=None, metavar="OUT", help="write the design as JSON here")
@@ -27,17 +70,21 @@ def register(sub) -> None:
                    help="also evaluate the design on another parameter file (e.g. the best model)")
     p.add_argument("--implement", action="store_true",
                    help="discretise the controller (eqs. 55-56, Tustin) and evaluate it")
-    p.add_argument("--r-in", type=float, default=None, help="sense resistor R_in [ohm] (Table 7: 0.0996)")
-    p.add_argument("--k-in", type=float, default=None, help="input gain K_in (Table 7: 99.23)")
-    p.add_argument("--k-out", type=float, default=None, help="output gain K_out (Table 7: 0.9846)")
-    p.add_argument("--fs", type=float, default=None, help="DSP sample rate [Hz] (Table 7: 5000)")
-    p.add_argument("--delay", type=int, nargs="?", const=1, default=None, metavar="SAMPLES",
+    p.add_argument("--r-in", type=positive_float, default=None,
+                   help="sense resistor R_in [ohm] (Table 7: 0.0996)")
+    p.add_argument("--k-in", type=positive_float, default=None, help="input gain K_in (Table 7: 99.23)")
+    p.add_argument("--k-out", type=positive_float, default=None, help="output gain K_out (Table 7: 0.9846)")
+    p.add_argument("--fs", type=positive_float, default=None, help="DSP sample rate [Hz] (Table 7: 5000)")
+    p.add_argument("--delay", type=int_at_least(0), nargs="?", const=1, default=None, metavar="SAMPLES",
                    help="computation delay in samples (flag alone: 1; default 0)")
-    p.add_argument("--plot", default=None, metavar="DIR", help="write receptance and attenuation-map PNGs")
-    p.add_argument("--bandwidth", type=float, default=None, metavar="RAD_S",
+    p.add_argument("--plot", default=None, metavar="DIR",
+                   help="write PNGs (receptance and attenuation map; with --posterior: gain bands, "
+                        "distributions, stability boundary)")
+    p.add_argument("--bandwidth", type=positive_float, default=None, metavar="RAD_S",
                    help="the shunt realisation's bandwidth [rad/s]: the stability constraint leaves out the "
                         "ideal loop above it (needed with a capacitance across the terminals); default: "
                         "ideal loop")
+    add_output_args(p)
     p.set_defaults(func=run)
 
 
@@ -57,10 +104,26 @@ def run(args) -> int:
     rig = {k: getattr(args, k) for k in ("r_in", "k_in", "k_out", "fs")}
     if not args.implement and (any(v is not None for v in rig.values()) or args.delay is not None):
         raise ValueError("--r-in, --k-in, --k-out, --fs and --delay apply to --implement only")
+    if args.posterior:
+        from ...shunt.batch_plant import SampledShunt
+        from ._robust_shunt import run_posterior
+
+        sampled = None
+        if args.implement:
+            rig = {k: (TABLE7[k] if v is None else v) for k, v in rig.items()}
+            sampled = SampledShunt(rig["r_in"], rig["k_in"], rig["k_out"], rig["fs"], args.delay or 0)
+        return run_posterior(args, sampled)
+    posterior_only = {"--log-evidence": args.log_evidence, "--compare": args.compare}
+    for flag, v in posterior_only.items():
+        if v:
+            raise ValueError(f"{flag} applies to --posterior only")
+    if args.params is None:
+        raise ValueError("give --params P.json (one design) or --posterior RUN.nc (design under uncertainty)")
+    inputs = [("--params", args.params), ("--evaluate-on", args.evaluate_on)]
     model, theta = read_param_file(args.params)
     check_model_matches(model, args.model, args.params)
-    if args.bandwidth is not None and not (args.bandwidth > 0 and math.isfinite(args.bandwidth)):
-        raise ValueError(f"--bandwidth must be a positive angular frequency [rad/s], got {args.bandwidth}")
+    plots = [f"shunt_{model.spec}_{name}.png" for name in ("receptance", "attenuation_map")]
+    check_outputs([("--json", args.json)], inputs, folders=[("--plot", args.plot, plots)])
     d = design_rc_shunt(model, theta, bandwidth=args.bandwidth)
     out = d.to_json_dict()
     out["params"] = str(args.params)
@@ -71,7 +134,9 @@ def run(args) -> int:
     print(f"model {model.label} ({args.params}): H-infinity optimal RC shunt ({d.optimum})")
     print(f"  Rs = {d.Rs:.5f} ohm, Cs = {d.Cs:.5g} F: attenuation {d.attenuation_db:.3f} dB "
           f"(peak at {d.peak_omega:.4g} rad/s = {d.peak_omega / (2 * math.pi):.4g} Hz)")
-    print(f"  fixed-point closed form: Rs = {cf['Rs']:.5f} ohm, Cs = {cf['Cs']:.5g} F "
+    detail(args, "  parameters: " + ", ".join(f"{s.name} = {v:.5g} {s.unit}"
+                                              for s, v in zip(model.params, theta, strict=True)))
+    note(args, f"  fixed-point closed form: Rs = {cf['Rs']:.5f} ohm, Cs = {cf['Cs']:.5g} F "
           f"({cf['attenuation_db']:.3f} dB; coil at omega0: L = {cf['L_eq']:.4g} H, "
           f"R = {cf['R_eq']:.3g} ohm)")
     print("  " + _fmt_margin(d))
@@ -104,10 +169,10 @@ def run(args) -> int:
         folder.mkdir(parents=True, exist_ok=True)
         for name, fig in (("receptance", plot_receptance(d, model, theta)),
                           ("attenuation_map", plot_attenuation_map(d, model, theta))):
-            path = folder / f"shunt_{model.spec}_{name}.png"
+            path = folder / f"shunt_{model.spec}_{name}.png"  # the names checked above
             save_figure(fig, path, dpi=120)
-            print(f"  wrote {path}")
+            note(args, f"  wrote {path}")
     if args.json:
         write_json(args.json, out)
-        print(f"wrote {args.json}")
+        note(args, f"wrote {args.json}")
     return 0

@@ -7,26 +7,45 @@ The parameter file is what ``bayes-emt fit --json`` writes (``{"model", "rings",
 
 from __future__ import annotations
 
-from ._common import check_model_matches
+from ...io._rows import MIN_POINTS
+from ..paths import check_outputs
+from ._common import (
+    add_output_args,
+    add_parser,
+    check_model_matches,
+    detail,
+    int_at_least,
+    note,
+    positive_float,
+    seed,
+)
+
+EXAMPLES = """\
+bayes-emt simulate --params nl_fit.json --out nl_sim.csv
+bayes-emt simulate --params ud.json --out ud.zma --noise 0.005 --seed 3 --points 500
+bayes-emt simulate --params ul.json --model UL --rings 20 --out ul20.csv --noise 0
+"""
 
 
 def register(sub) -> None:
-    p = sub.add_parser("simulate", help="simulate a measurement from a parameter file",
-                       description="Simulate the admittance of a model at the parameters of a JSON file "
-                                   "and write it as a measurement file.")
+    p = add_parser(sub, "simulate", help="simulate a measurement from a parameter file",
+                   description="Simulate the admittance of a model at the parameters of a JSON file "
+                               "and write it as a measurement file.", examples=EXAMPLES)
     p.add_argument("--params", required=True, help='JSON {"model", "parameters"} (as fit --json writes)')
     p.add_argument("--out", required=True, help="output file (.csv native, or .zma)")
     p.add_argument("--model", default=None, metavar="SPEC",
                    help="check that the parameter file holds this model (a spec: UD, NL+winding_capacitance)")
-    p.add_argument("--rings", type=int, default=None,
+    p.add_argument("--rings", type=int_at_least(1), default=None,
                    help="rings: for UL the discretisation (default: the file's, else 5); "
                         "for NL it must match the file's P1..Pn")
     p.add_argument("--noise", type=float, default=0.002,
                    help="relative complex Gaussian noise per real/imag part (default 0.002 = 0.2 %%)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    p.add_argument("--omega-min", type=float, default=1e1, help="lowest omega, rad/s (default 10)")
-    p.add_argument("--omega-max", type=float, default=1e5, help="highest omega, rad/s (default 1e5)")
-    p.add_argument("--points", type=int, default=2000, help="log-spaced points (default 2000)")
+    p.add_argument("--seed", type=seed, default=0, help="noise seed, a non-negative integer (default 0)")
+    p.add_argument("--omega-min", type=positive_float, default=1e1, help="lowest omega, rad/s (default 10)")
+    p.add_argument("--omega-max", type=positive_float, default=1e5, help="highest omega, rad/s (default 1e5)")
+    p.add_argument("--points", type=int_at_least(MIN_POINTS, " (the readers, and so fit, refuse fewer)"),
+                   default=2000, help=f"log-spaced points, at least {MIN_POINTS} (default 2000)")
+    add_output_args(p)
     p.set_defaults(func=run)
 
 
@@ -54,6 +73,7 @@ def run(args) -> int:
     from ...io.paramfile import read_param_file
     from ...io.simulate import log_omega_grid, simulate
 
+    check_outputs([("--out", args.out)], [("--params", args.params)])
     model, theta = read_param_file(args.params)
     check_model_matches(model, args.model, args.params)
     model, theta = _with_rings(model, theta, args.rings, args.params)
@@ -62,6 +82,8 @@ def run(args) -> int:
     write_measurement(meas, args.out)
     noise = (f"noise {100 * args.noise:g} % relative per real/imag part, seed {args.seed}" if args.noise > 0
              else "no noise")
-    print(f"wrote {args.out}: model {model.label}, {meas.n_points} log-spaced points, "
+    detail(args, "parameters: " + ", ".join(f"{s.name} = {v:.6g} {s.unit}"
+                                            for s, v in zip(model.params, theta, strict=True)))
+    note(args, f"wrote {args.out}: model {model.label}, {meas.n_points} log-spaced points, "
           f"{omega[0]:.4g}..{omega[-1]:.4g} rad/s ({meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz), {noise}")
     return 0

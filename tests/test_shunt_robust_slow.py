@@ -1,0 +1,44 @@
+"""Issue 12 acceptance points 2 and 3 on real emcee posteriors (slow: each samples an NL(5)
+posterior, ≈ 3-5 min on 2 quiet cores; ``scripts/robust_shunt_study.py`` prints the same and more)."""
+
+import numpy as np
+import pytest
+
+from bayes_emt import build_model, simulate
+from bayes_emt.inference.sampling import sample_posterior
+from bayes_emt.io.datasets import load_paper_bench
+from bayes_emt.reference import PAPER_TABLES
+from bayes_emt.shunt.draws import sample_mixture
+from bayes_emt.shunt.robust import design_robust_shunt
+
+pytestmark = pytest.mark.slow
+
+
+def robust_on(post, seed=0):
+    groups, _ = sample_mixture([(post.model, post.theta(), "posterior")], [1.0], 1000, seed=seed)
+    return design_robust_shunt(groups, seed=seed)
+
+
+def test_acceptance_2_bundled_nl_posterior():
+    # issue 12, acceptance 2: on the held-back draws the robust shunt's worst 5 % attenuation (q95)
+    # is better than the nominal's, its P(unstable) <= 1e-3, with the Clopper-Pearson interval
+    post = sample_posterior(load_paper_bench(), build_model("NL"), seed=1, progress=False)
+    assert post.converged
+    rep = robust_on(post).to_json_dict()
+    assert rep["robust"]["attenuation_db"]["q95"] < rep["nominal"]["attenuation_db"]["q95"]
+    assert rep["robust"]["p_unstable"] <= 1e-3
+    lo, hi = rep["robust"]["p_unstable_ci"]
+    assert lo == 0.0 and hi == pytest.approx(1 - 0.025 ** (1 / 500), rel=1e-9)  # 0 of 500, 95 %
+
+
+def test_acceptance_3_two_percent_noise_moves_rs_up_because_of_the_boundary():
+    # issue 12, acceptance 3: with 2 % noise the robust Rs lies on the less negative side of the
+    # nominal Rs and the report names the stability boundary as the reason
+    meas = simulate(build_model("NL"), PAPER_TABLES["NL"], noise=0.02, seed=20261124)
+    post = sample_posterior(meas, build_model("NL"), seed=1, progress=False)
+    assert post.converged
+    res = robust_on(post)
+    why = res.to_json_dict()["why"]
+    assert res.robust.Rs > res.nominal.Rs and why["side"] == "less negative"
+    assert why["boundary_explains"] and "stability boundary" in why["text"]
+    assert np.min(res.robust.margin[~res.held]) > np.min(res.nominal.margin[~res.held])
