@@ -184,7 +184,7 @@ def _summary(meas, fit, post=None) -> dict:
     return out
 
 
-def _diagnose(meas, model, fit, folder: Path) -> None:
+def _diagnose(meas, model, folder: Path, settings) -> dict:
     try:
         from .. import discovery  # noqa: F401  (issue 13; absent from builds without it)
         from ..discovery import diagnose
@@ -193,7 +193,9 @@ def _diagnose(meas, model, fit, folder: Path) -> None:
                                   "issue 13, is not installed); run with --jobs fit,sample") from None
     from ..io.paramfile import write_json
 
-    write_json(folder / "diagnosis.json", diagnose(meas, model, fit=fit).to_json_dict())
+    rec = diagnose(meas, model, seed=settings.seed).to_json_dict()
+    write_json(folder / "diagnosis.json", rec)
+    return rec
 
 
 def _sample(meas, model, fit, folder: Path, settings: BatchSettings):
@@ -243,7 +245,7 @@ def process_file(inp: BatchInput, folder: str | Path, settings: BatchSettings) -
             write_json(folder / "fit.json", fit.to_json_dict())
             post = _sample(meas, model, fit, folder, settings) if "sample" in settings.jobs else None
             if "diagnose" in settings.jobs:
-                _diagnose(meas, model, fit, folder)
+                _diagnose(meas, model, folder, settings)
             summary = _summary(meas, fit, post)
         except Exception as exc:  # noqa: BLE001 (one file's failure must not stop the batch)
             msg = _one_line(exc)

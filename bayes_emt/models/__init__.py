@@ -13,11 +13,19 @@ from .registry import (
            make_term,
            term_from_dict,
 )
-from .spec import DEFAULT_N_TURNS, DEFAULT_RINGS, build_model, model_from_dict, parse_model_spec
+from .spec import (
+    DEFAULT_N_TURNS,
+    DEFAULT_RINGS,
+    EDDY_LADDER,
+    build_model,
+    eddy_escalations,
+    model_from_dict,
+    parse_model_spec,
+)
 from .term import CoilStart, FosterPart, StartContext, Term
 
 __all__ = ["Model", "Loop", "JwForm",
            "Term", "CoilStart", "FosterPart", "StartContext", "TERMS", "AUGMENTATIONS",
            "BASE_MODELS", "MODEL_NAMES", "make_term", "term_from_dict", "catalogue_entries", "build_model",
            "parse_model_spec", "model_from_dict", "DEFAULT_N_TURNS", "DEFAULT_RINGS", "Foster", "foster_form",
-           "BESSEL_SECTIONS"]
+           "BESSEL_SECTIONS", "EDDY_LADDER", "eddy_escalations"]

@@ -159,6 +159,17 @@ class EnclosurePort(Term):
         L, w, z = col(v, 0), col(v, 1), col(v, 2)
         return (s / L) / (s * s + 2.0 * z * w * s + w * w)
 
+    #: port tuning over the driver's resonance a vented box or passive radiator realises
+    TUNING_RANGE = (0.3, 3.0)
+
+    def implausible(self, values):
+        ratio = values["omegab"] / values["omega0"]
+        lo, hi = self.TUNING_RANGE
+        if not lo <= ratio <= hi:
+            return (f"port tuning omegab = {values['omegab']:.4g} rad/s is {ratio:.3g} x the driver's "
+                    f"resonance (a box realises {lo:g}-{hi:g} x): another mode, not a port")
+        return None
+
     def start(self, ctx):
         pL, pw, pz = (self.params[n].prior for n in ("Lb", "omegab", "zetab"))
         zeta0, w0, phi = ctx.base["zeta"], ctx.base["omega0"], ctx.base["phi"]

@@ -16,7 +16,11 @@ from ..params import ParamSet, ParamSpec, prior_from_dict
 from .model import Model
 from .registry import AUGMENTATIONS, BASE_MODELS, MODEL_NAMES, make_term, term_from_dict
 
-__all__ = ["build_model", "parse_model_spec", "model_from_dict", "DEFAULT_N_TURNS", "DEFAULT_RINGS"]
+__all__ = ["build_model", "parse_model_spec", "model_from_dict", "eddy_escalations", "EDDY_LADDER",
+           "DEFAULT_N_TURNS", "DEFAULT_RINGS"]
+
+#: the eddy-current escalation of the coil model (SPEC §7), lowest rung first
+EDDY_LADDER: tuple[str, ...] = ("I", "II", "III", "UD", "NL")
 
 DEFAULT_N_TURNS = 480.0  # the paper's coil (SPEC §2)
 DEFAULT_RINGS = 5  # the paper's NL choice (SPEC §3.3)
@@ -110,3 +114,21 @@ def model_from_dict(d: Mapping, *, where: str = "model") -> Model:
                              f"{list(model.names)}")
         model = model.with_priors({s.name: s.prior for s in specs}, where=where)
     return model
+
+
+def eddy_escalations(model: Model, ring_counts=(2, 3, 4, 5, 6, 7)) -> list[Model]:
+    """The models up the eddy-current ladder (:data:`EDDY_LADDER`) from ``model``'s coil model, its
+    augmentations kept, in order; NL at each of ``ring_counts`` (above the current count when
+    ``model`` is NL already). Empty when the coil model is not on the ladder."""
+    if model.base not in EDDY_LADDER:
+        return []
+    extra = "".join("+" + t.id for t in model.augmentations)
+    out = []
+    for name in EDDY_LADDER[EDDY_LADDER.index(model.base) + 1:]:
+        if name == "NL":
+            out += [parse_model_spec(f"NL({n}){extra}") for n in ring_counts]
+        else:
+            out.append(parse_model_spec(name + extra))
+    if model.base == "NL" and model.rings is not None:
+        out += [parse_model_spec(f"NL({n}){extra}") for n in ring_counts if n > model.rings]
+    return out

@@ -247,6 +247,13 @@ class Term:
         values to this term's (``convert(values) -> {name: value}``); ``None`` when not needed."""
         return None
 
+    def implausible(self, values: Mapping[str, float]) -> str | None:
+        """Why fitted ``values`` ``{name: value}`` [SI] (the whole model's) are not this physics,
+        or ``None``: a term whose form can mimic another's (a vented box's branch far above the
+        driver's resonance is a second mode, not a port) says so, and discrepancy discovery then
+        does not name it."""
+        return None
+
     def start(self, ctx: StartContext) -> list[dict[str, float]]:
         """Starting values ``[{param: value}]`` (several: a multi-start) of an augmentation, from the
         base fit's misfit in the band where it acts; best guesses first."""

@@ -29,14 +29,13 @@ import warnings
 from pathlib import Path
 
 from ..paths import check_outputs
-from ._common import int_at_least, print_table, print_warnings, seed
+from ._common import add_output_args, add_parser, int_at_least, print_table, print_warnings, seed
 
-EPILOG = """examples:
-  bayes-emt demo --quick                 # about 2 min: fewer models, short chains (says what it cut)
-  bayes-emt demo --out demo_run          # the full chain (< 15 min on 2 cores), then open
-                                         # demo_run/report.html
-  bayes-emt demo --data speaker.zma --concealed other.zma   # your own recordings instead of the bundled ones
-  bayes-emt report demo_run              # rebuild the report from the saved outputs
+EXAMPLES = """\
+bayes-emt demo --quick  (about 2 min: fewer models, short chains; the report says what it cut)
+bayes-emt demo --out demo_run  (the whole chain, then open demo_run/report.html)
+bayes-emt demo --data speaker.zma --concealed other.zma  (your own recordings instead of the bundled ones)
+bayes-emt demo --skip diagnose --quiet
 """
 
 FULL = {"models": ("I", "II", "III", "UD", "NL", "UL"), "hankel": True, "methods": ("laplace", "bridge"),
@@ -72,9 +71,8 @@ QUICK_CUTS = (
 
 
 def register(sub) -> None:
-    p = sub.add_parser("demo", help="the whole chain on the bundled data, ending in report.html",
-                       description=__doc__, epilog=EPILOG,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_parser(sub, "demo", help="the whole chain on the bundled data, ending in report.html",
+                   description=__doc__, examples=EXAMPLES)
     p.add_argument("--out", default="bayes_emt_demo", help="output folder (default ./bayes_emt_demo)")
     p.add_argument("--quick", action="store_true", help="about 2 minutes: models I, II and NL only, 300-step "
                    "chains, no Hankel ring choice, 200 draws for the robust shunt (the report says what "
@@ -88,9 +86,7 @@ def register(sub) -> None:
                    help="emcee step budget per model (default 20000; --quick 300)")
     p.add_argument("--skip", default=None, metavar="STEPS",
                    help=f"comma-separated steps to leave out ({', '.join(SKIPPABLE)}); the report says so")
-    p.add_argument("--quiet", action="store_true", help="no progress bars or tables; errors and the "
-                   "report's path only")
-    p.add_argument("--verbose", action="store_true", help="also print the sub-steps' full output")
+    add_output_args(p, progress=True)
     p.set_defaults(func=run)
 
 
@@ -146,13 +142,20 @@ def _available(module: str) -> bool:
 
 
 def _recording_summary(meas, role: str) -> dict:
+    from ...models import model_from_dict
+
     wm = meas.meta.get("written_meta", {})
-    terms = [t.get("id") for t in wm.get("terms", []) if t.get("id") not in ("motional", "resistance", None)]
     sim = None
     if wm.get("simulated"):
         sim = f"{wm.get('model')} (rings {wm.get('rings')}), seed {wm.get('seed')}"
-        if "second_resonance" in terms:
-            sim += "; hides a second mechanical mode (not told to the diagnosis)"
+        try:
+            hidden = [t for t in model_from_dict({**wm, "parameters": wm.get("priors")}).terms
+                      if getattr(t, "augmentation", False)]
+        except (ValueError, TypeError, KeyError):
+            hidden = []
+        if hidden:
+            sim += ("; hides " + ", ".join(f"{t.id} ({t.description})" for t in hidden)
+                    + " (not told to the diagnosis)")
     return {"source": str(meas.source), "role": role, "n_points": int(meas.n_points),
             "omega_min": float(meas.omega[0]), "omega_max": float(meas.omega[-1]),
             "f_min_hz": float(meas.f_hz[0]), "f_max_hz": float(meas.f_hz[-1]),

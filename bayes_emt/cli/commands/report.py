@@ -10,28 +10,25 @@ missing.
 
 from __future__ import annotations
 
-import argparse
+from ._common import add_output_args, add_parser
 
-EPILOG = """examples:
-  bayes-emt demo --quick --out demo_run        # writes demo_run/report.html itself
-  bayes-emt report demo_run                    # rebuild demo_run/report.html
-  bayes-emt report demo_run --out /tmp/r.html  # write it elsewhere
-  bayes-emt report demo_run --screenshot shot.png   # and check it renders: headless Chromium screenshot
+EXAMPLES = """\
+bayes-emt report demo_run  (rebuild demo_run/report.html from what demo --out demo_run saved)
+bayes-emt report demo_run --out /tmp/r.html  (write it elsewhere)
+bayes-emt report demo_run --screenshot shot.png  (and check it renders: a headless Chromium screenshot)
 """
 
 
 def register(sub) -> None:
-    p = sub.add_parser("report", help="rebuild the HTML report of a run folder from its saved outputs",
-                       description=__doc__, epilog=EPILOG,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_parser(sub, "report", help="rebuild the HTML report of a run folder from its saved outputs",
+                   description=__doc__, examples=EXAMPLES)
     p.add_argument("run_dir", metavar="RUN_DIR", help="run folder (as demo --out writes)")
     p.add_argument("--out", default=None, metavar="HTML", help="report file (default RUN_DIR/report.html)")
     p.add_argument("--screenshot", default=None, metavar="PNG",
                    help="also render the report in headless Chromium and save a screenshot here")
     p.add_argument("--width", type=int, default=1200, help="screenshot width [CSS px] (default 1200)")
     p.add_argument("--height", type=int, default=3000, help="screenshot height [CSS px] (default 3000)")
-    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
-    p.add_argument("--verbose", action="store_true", help="also list the sections and what was not run")
+    add_output_args(p)
     p.set_defaults(func=run)
 
 

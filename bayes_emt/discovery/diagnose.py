@@ -1,0 +1,378 @@
+"""Discrepancy discovery end to end: locate, name, model, repeat until no significant mismatch.
+
+:func:`diagnose` fits the starting model (given, or the base model the evidence prefers), then
+repeats: locate bands of significant mismatch (:mod:`.locate`); for each band, strongest first,
+fit the catalogue physics whose signature acts there (:mod:`.candidates`, :mod:`.name`); accept
+the best candidate when it is significant by evidence and whitens the band, and start the next
+round from the augmented fit. A round in which no band is explained ends the search; the bands
+still flagged then are ``unexplained``, each with its shape (:mod:`.shape`). The result is a
+frozen :class:`Diagnosis` whose :meth:`~Diagnosis.to_json_dict` is the ``diagnose --json`` schema.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import FitError
+from ..estimation.checks import locate_resonance
+from ..estimation.fitting import fit_admittance
+from ..estimation.results import FitResult
+from ..measurement import Measurement
+from ..models import Model, parse_model_spec
+from .candidates import candidate_physics
+from .locate import ALPHA, Band, Location, locate_mismatch
+from .name import Candidate, log_evidence, max_log_likelihood, rank_candidates
+from .shape import describe_shape, residual_shape
+
+__all__ = ["Finding", "Diagnosis", "diagnose", "preferred_base_model", "BASELINE_CANDIDATES"]
+
+#: base models compared by evidence when no starting model is given
+BASELINE_CANDIDATES: tuple[str, ...] = ("I", "II", "III", "UD")
+#: bands examined per round (strongest first)
+MAX_BANDS_PER_ROUND = 3
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One accepted explanation: the physics id, the band it explains, ``Δ log Z`` [nats], the band's
+    χ² before and after, whether the data determine it, the parameters it adds and those that moved,
+    the model after it, and a plain-words verdict."""
+
+    physics: str
+    band: Band
+    delta_log_evidence: float
+    chi2_band_before: float
+    chi2_band_after: float
+    identifiable: bool
+    identifiability: str
+    device: bool
+    parameters: dict
+    model_spec: str
+    explanation: str
+
+    def to_json_dict(self) -> dict:
+        return {
+            "physics": self.physics,
+            "band_rad_s": [self.band.lo, self.band.hi],
+            "band_hz": [self.band.lo / (2 * math.pi), self.band.hi / (2 * math.pi)],
+            "delta_log_evidence": self.delta_log_evidence,
+            "chi2_band_before": self.chi2_band_before,
+            "chi2_band_after": self.chi2_band_after,
+            "identifiable": self.identifiable,
+            "parameters": self.parameters,
+            "explanation": self.explanation,
+        }
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """What :func:`diagnose` found.
+
+    Attributes
+    ----------
+    source : the measurement's source.
+    baseline_fit, final_fit : the starting model's and the final model's fits.
+    findings : accepted explanations in the order found.
+    unexplained : ``({"band_rad_s", "band_hz", "description", "shape"}, ...)`` bands no candidate
+        explains.
+    locations : the mismatch location of every round (JSON records).
+    tried : every candidate tried per band (physics, Δ log Z, whitening, accepted).
+    warnings : what makes the result less trustworthy.
+    seconds : wall time.
+    """
+
+    source: str
+    baseline_fit: FitResult
+    final_fit: FitResult
+    findings: tuple[Finding, ...]
+    unexplained: tuple[dict, ...]
+    locations: tuple[dict, ...] = ()
+    tried: tuple[dict, ...] = ()
+    warnings: tuple[str, ...] = ()
+    seconds: float = 0.0
+    final_location: Location | None = field(default=None, compare=False)
+    baseline_location: Location | None = field(default=None, compare=False)
+
+    @property
+    def baseline_model(self) -> str:
+        return self.baseline_fit.model.label
+
+    @property
+    def final_model(self) -> str:
+        return self.final_fit.model.label
+
+    def to_json_dict(self) -> dict:
+        """The ``bayes-emt diagnose --json`` record (issue 13's schema)."""
+        return {
+            "baseline_model": self.baseline_model,
+            "final_model": self.final_model,
+            "rms_rel_residual": {
+                "baseline": self.baseline_fit.rms_rel_residual,
+                "final": self.final_fit.rms_rel_residual,
+            },
+            "findings": [f.to_json_dict() for f in self.findings],
+            "unexplained": [
+                {"band_rad_s": u["band_rad_s"], "description": u["description"]} for u in self.unexplained
+            ],
+            "warnings": list(self.warnings),
+        }
+
+    def details(self) -> dict:
+        """Everything behind the verdict (rounds, candidates, shapes, timings) for reports."""
+        return {
+            **self.to_json_dict(),
+            "source": self.source,
+            "locations": list(self.locations),
+            "tried": list(self.tried),
+            "unexplained_detail": list(self.unexplained),
+            "seconds": self.seconds,
+            "baseline_parameters": self.baseline_fit.parameters,
+            "final_parameters": self.final_fit.parameters,
+        }
+
+
+def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES) -> tuple[FitResult, float, dict]:
+    """The base model (of ``names``) with the largest Laplace log evidence: its fit, log Z and the
+    log Z of every one tried ``{name: log_z}`` [nats]."""
+    best, scores = None, {}
+    for name in names:
+        try:
+            fit = fit_admittance(meas, parse_model_spec(name))
+        except (FitError, ValueError):
+            continue
+        lz = log_evidence(meas, fit)
+        scores[name] = lz
+        if math.isfinite(lz) and (best is None or lz > best[1]):
+            best = (fit, lz)
+    if best is None:
+        raise FitError(f"{meas.source}: none of the base models {', '.join(names)} could be fitted")
+    return best[0], best[1], scores
+
+
+def _mechanics(fit: FitResult) -> dict:
+    p = fit.parameters
+    out = {k: p[k] for k in ("R0", "zeta", "omega0", "phi") if k in p}
+    if "omega0" in p:
+        out["fs_hz"] = p["omega0"] / (2 * math.pi)
+    if "zeta" in p:
+        out["Qms"] = 1.0 / (2.0 * p["zeta"])
+    return out
+
+
+def moved_parameters(before: FitResult, after: FitResult) -> dict:
+    """``{name: {"before", "after", "relative_change"}}`` of the plant parameters (R0, ζ, ω0, φ̄ and
+    the derived fs [Hz], Qms = 1/(2ζ)) [SI]."""
+    a, b = _mechanics(before), _mechanics(after)
+    return {
+        k: {"before": a[k], "after": b[k], "relative_change": (b[k] - a[k]) / a[k] if a[k] else None}
+        for k in a
+        if k in b
+    }
+
+
+def _fmt(v: float, unit: str) -> str:
+    """``v`` with its unit, SI prefixes for F, H and Ω; dimensionless (unit ``1``) bare."""
+    prefixes = [(1e-12, "p"), (1e-9, "n"), (1e-6, "µ"), (1e-3, "m"), (1.0, ""), (1e3, "k")]
+    if unit in ("F", "H", "Ω", "ohm") and v != 0:
+        for scale, pre in reversed(prefixes):
+            if abs(v) >= scale:
+                return f"{v / scale:.3g} {pre}{unit}"
+        return f"{v:.3g} {unit}"
+    return f"{v:.4g}" if unit == "1" else f"{v:.4g} {unit}".strip()
+
+
+def _explain(c: Candidate, band: Band, model: Model, moved: dict) -> str:
+    units = dict(zip(model.names, model.params.units, strict=True))
+    pars = ", ".join(
+        f"{n} = {_fmt(v, units[n])} ± {_fmt(s, units[n])}"
+        if math.isfinite(s)
+        else f"{n} = {_fmt(v, units[n])}"
+        for n, (v, s) in c.added.items()
+    )
+    what = c.fit.model.label if c.physics == "eddy_current" else c.physics
+    lo, hi = band.lo / (2 * math.pi), band.hi / (2 * math.pi)
+    head = f"{what} ({pars})" if pars else what
+    shifts = ", ".join(
+        f"{k} {100 * d['relative_change']:+.1f} %"
+        for k, d in moved.items()
+        if k in ("R0", "Qms", "fs_hz", "phi")
+        and d["relative_change"] is not None
+        and abs(d["relative_change"]) > 0.005
+    )
+    holds = ("improves the fit and is determined by the data" if c.identifiable
+             else "improves the fit but is not determined by the data: " + c.identifiability)
+    parts = "/".join(band.parts)
+    return (
+        f"{head} explains the mismatch in the {parts} part(s) between {lo:.4g} and {hi:.4g} Hz; "
+        f"log Z rises by {c.delta_log_z:.1f} nats ({c.strength}); the band's chi2 falls from "
+        f"{c.chi2_band_before:.4g} to {c.chi2_band_after:.4g} ({c.n_band} residuals); {holds}"
+        + (f"; moved: {shifts}" if shifts else "")
+    )
+
+
+def diagnose(
+    meas: Measurement,
+    model: Model | None = None,
+    *,
+    max_rounds: int = 4,
+    alpha: float = ALPHA,
+    seed: int = 0,
+    progress=None,
+    time_budget: float | None = 240.0,
+) -> Diagnosis:
+    """Locate, name and model what ``model`` leaves out of ``meas`` (module docstring).
+
+    Parameters
+    ----------
+    meas : the measurement.
+    model : the starting model; ``None``: the base model the evidence prefers
+        (:func:`preferred_base_model`).
+    max_rounds : at most this many accepted findings.
+    alpha : the scan's family-wise false-alarm probability per round.
+    seed : seeds the scan's calibration replicates.
+    progress : optional ``callable(str)`` told what is being done.
+    time_budget : CPU seconds of this process after which no further candidate is fitted (the
+        round in progress finishes with what it has; a warning says so); ``None``: no limit. CPU
+        time, not wall time: on a shared machine the result does not depend on the load.
+    """
+    t0 = time.perf_counter()
+    deadline = None if time_budget is None else time.process_time() + time_budget
+    say = progress or (lambda msg: None)
+    warn: list[str] = []
+    if model is None:
+        say("choosing the base model by evidence")
+        fit, lz, scores = preferred_base_model(meas)
+        say(
+            "base model "
+            + fit.model.label
+            + " (log Z: "
+            + ", ".join(f"{k} {v:.1f}" for k, v in scores.items())
+            + ")"
+        )
+    else:
+        fit = fit_admittance(meas, model)
+        lz = log_evidence(meas, fit)
+    if not math.isfinite(lz):
+        lz = max_log_likelihood(meas, fit)
+        warn.append(
+            f"the Laplace evidence of the starting model {fit.model.label} failed (a model far from the "
+            "data); its maximum likelihood bounds it from above, so the first delta_log_evidence is a "
+            "lower bound"
+        )
+    baseline = fit
+    resonance = locate_resonance(meas)
+    omega_r = None if resonance is None else resonance.omega
+    findings, locations, tried = [], [], []
+    loc0 = loc = None
+    unexplained_bands: list[Band] = []
+    for rnd in range(max_rounds + 1):
+        say(f"round {rnd}: locating the mismatch of {fit.model.label}")
+        loc = locate_mismatch(meas, fit.model, fit.theta, alpha=alpha, seed=seed + rnd)
+        loc0 = loc0 or loc
+        locations.append({"round": rnd, "model": fit.model.label, **loc.to_json_dict()})
+        if not loc.bands or rnd == max_rounds:
+            unexplained_bands = list(loc.bands)
+            break
+        accepted = None
+        unexplained_bands = []
+        if deadline is not None and time.process_time() > deadline:
+            warn.append(f"time budget of {time_budget:g} s reached: the bands left were not examined")
+            unexplained_bands = list(loc.bands)
+            break
+        for band in loc.bands[:MAX_BANDS_PER_ROUND]:
+            ids = candidate_physics(band, fit.model, omega_r)
+            say(f"band {band.lo:.4g}-{band.hi:.4g} rad/s: trying {', '.join(ids)}")
+            ranked = rank_candidates(meas, fit, lz, band, loc.sigma_rel, ids, progress=say, deadline=deadline)
+            tried.append(
+                {
+                    "round": rnd,
+                    "band_rad_s": [band.lo, band.hi],
+                    "candidates": [
+                        {
+                            "physics": c.physics,
+                            "model": c.fit.model.label,
+                            "delta_log_evidence": c.delta_log_z,
+                            "whitening": c.whitening,
+                            "identifiable": c.identifiable,
+                            "accepted": c.accepted,
+                            "implausible": c.implausible,
+                        }
+                        for c in ranked
+                    ],
+                }
+            )
+            if deadline is not None and time.process_time() > deadline:
+                warn.append(f"time budget of {time_budget:g} s reached while trying candidates for the band "
+                            f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted")
+            if ranked and ranked[0].accepted:
+                accepted = (band, ranked[0])
+                break
+            unexplained_bands.append(band)
+        if accepted is None:
+            unexplained_bands += list(loc.bands[MAX_BANDS_PER_ROUND:])
+            break
+        band, c = accepted
+        moved = moved_parameters(fit, c.fit)
+        units = dict(zip(c.fit.model.names, c.fit.model.params.units, strict=True))
+        params = {
+            "added": {
+                n: {"value": v, "stderr": s if math.isfinite(s) else None, "unit": units[n]}
+                for n, (v, s) in c.added.items()
+            },
+            "moved": moved,
+        }
+        term = next((t for t in c.fit.model.augmentations if t.id == c.physics), None)
+        findings.append(
+            Finding(
+                c.physics,
+                band,
+                c.delta_log_z,
+                c.chi2_band_before,
+                c.chi2_band_after,
+                c.identifiable,
+                c.identifiability,
+                True if term is None else term.device,
+                params,
+                c.fit.model.label,
+                _explain(c, band, c.fit.model, moved)
+                + ("" if term is None or term.device else "; an instrument or session effect"),
+            )
+        )
+        say(findings[-1].explanation)
+        fit, lz = c.fit, c.log_z
+    unexplained = []
+    for band in unexplained_bands:
+        shape = residual_shape(meas, fit.model, fit.theta, band)
+        unexplained.append(
+            {
+                "band_rad_s": [band.lo, band.hi],
+                "band_hz": [band.lo / (2 * np.pi), band.hi / (2 * np.pi)],
+                "parts": list(band.parts),
+                "description": describe_shape(band, shape),
+                "shape": shape,
+            }
+        )
+    if len(findings) == max_rounds and loc is not None and loc.bands:
+        warn.append(f"stopped after {max_rounds} findings with mismatch left")
+    if baseline.info.get("resonance_mismatch") or fit.info.get("resonance_mismatch"):
+        warn.append("a fit put the resonance away from the impedance peak the data shows")
+    for f in findings:
+        if not f.identifiable:
+            warn.append(f"{f.physics}: {f.identifiability}")
+    return Diagnosis(
+        meas.source,
+        baseline,
+        fit,
+        tuple(findings),
+        tuple(unexplained),
+        tuple(locations),
+        tuple(tried),
+        tuple(warn),
+        time.perf_counter() - t0,
+        loc,
+        loc0,
+    )

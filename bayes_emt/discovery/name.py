@@ -1,0 +1,303 @@
+"""Naming the missing physics: fit each candidate, rank by evidence and by how much it whitens the band.
+
+For a located band (:mod:`.locate`) each candidate physics (:mod:`.candidates`) is fitted:
+
+* a catalogue term is added to the current model and started inside the band from the current fit
+  (:func:`~bayes_emt.estimation.augment.augmentation_starts`, the term's own multi-start), each of
+  the best few starts polished by :func:`~bayes_emt.estimation.fitting.fit_admittance` (whose
+  resonance rule keeps ``ω0`` where the data has its resonance, so the fits compare like with
+  like); the best polish counts;
+* ``eddy_current`` fits the coil models up the ladder from the data (ring count of NL by
+  evidence among them).
+
+Each fit's log evidence is the Laplace screen of :mod:`bayes_emt.evidence` (the same
+approximation its comparison uses from a least-squares fit, with the noise scales as parameters),
+so ``Δ log Z`` is against the current model on the same data and priors. The band's χ² is the sum
+of squared normalised residuals (both parts) in the band with the noise of the location
+(:attr:`~.locate.Location.sigma_rel`), before and after.
+
+A candidate is **accepted** when ``Δ log Z ≥`` :data:`MIN_DELTA_LOG_Z` (≥ 5 nats: "very strong" on
+Kass & Raftery's scale, :mod:`bayes_emt.evidence.scale`), it removes at least
+:data:`MIN_WHITENING` of the band's structure (:attr:`Candidate.whitening`) and its fitted values
+are this physics (:meth:`~bayes_emt.models.term.Term.implausible`: a vented box's port tuned far
+from the driver's resonance is another mode). It is **identifiable** when every parameter it adds
+has a relative standard error (sampling space, from the fit's covariance) below
+:data:`MAX_REL_SE` and the term's catalogue entry does not say otherwise (lead resistance).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize
+
+from ..errors import FitError
+from ..estimation.augment import augmentation_starts
+from ..estimation.fitting import fit_admittance
+from ..estimation.results import FitResult
+from ..evidence.compare import _laplace  # the evidence package's Laplace screen from a fit
+from ..evidence.scale import verbal
+from ..inference.likelihood import Likelihood
+from ..measurement import Measurement
+from ..models import Model, make_term
+from .candidates import escalations
+from .locate import Band, scan_statistics
+
+__all__ = [
+    "Candidate",
+    "log_evidence",
+    "max_log_likelihood",
+    "band_chi2",
+    "fit_candidate",
+    "rank_candidates",
+    "MIN_DELTA_LOG_Z",
+    "MIN_WHITENING",
+    "MAX_REL_SE",
+]
+
+MIN_DELTA_LOG_Z = 5.0
+MIN_WHITENING = 0.3
+MAX_REL_SE = 0.5
+#: augmentation starts polished per candidate term
+STARTS_POLISHED = 2
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One tried explanation of a band.
+
+    ``physics`` the SPEC §7 id; ``fit`` its least-squares fit; ``log_z`` its Laplace log evidence
+    [nats]; ``delta_log_z`` against the current model; ``chi2_band_before``/``after`` the band's
+    χ²; ``identifiable`` and ``identifiability`` (why); ``n_band`` the band's residual count
+    (its χ² expectation when white); ``added`` the parameters the candidate
+    adds ``{name: (value, stderr)}`` [SI]."""
+
+    physics: str
+    fit: FitResult
+    log_z: float
+    delta_log_z: float
+    chi2_band_before: float
+    chi2_band_after: float
+    identifiable: bool
+    identifiability: str
+    n_band: int = 0
+    scan_before: float = 0.0
+    scan_after: float = 0.0
+    added: dict = field(default_factory=dict)
+    implausible: str | None = None
+
+    @property
+    def whitening(self) -> float:
+        """Fraction of the band's structure removed: ``(T_before − T_after)/(T_before − 3)`` with ``T``
+        the largest scan statistic (:func:`~.locate.scan_statistics`, χ²₃ when white, mean 3) of the
+        windows inside the band, residuals normalised by the location's noise."""
+        excess = self.scan_before - 3.0
+        return float((self.scan_before - self.scan_after) / excess) if excess > 0 else 0.0
+
+    @property
+    def accepted(self) -> bool:
+        return bool(
+            self.delta_log_z >= MIN_DELTA_LOG_Z
+            and self.whitening >= MIN_WHITENING
+            and self.implausible is None
+        )
+
+    @property
+    def strength(self) -> str:
+        return verbal(self.delta_log_z)
+
+
+def log_evidence(meas: Measurement, fit: FitResult) -> float:
+    """Laplace log evidence [nats] of ``fit.model`` on ``meas`` (Gaussian likelihood with sampled
+    noise scales), from the least-squares fit; ``nan`` when the screen fails."""
+    lik = Likelihood(fit.model, meas)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            rec, _ = _laplace(lik, fit)
+    except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+        return float("nan")
+    v = rec.get("log_evidence")
+    return float(v) if v is not None else float("nan")
+
+
+def max_log_likelihood(meas: Measurement, fit: FitResult) -> float:
+    """``max log p(Y | θ, σ)`` [nats] at the least-squares ``θ`` over the noise scales
+    (``σ_rel``, ``σ_abs``): an upper bound of ``log Z`` (``Z = ∫ L π ≤ max L``), used in place of the
+    current model's evidence when its Laplace screen fails (a model far from the data), so that
+    ``Δ log Z`` is then a lower bound."""
+    lik = Likelihood(fit.model, meas)
+    rel = float(
+        np.sqrt(
+            np.mean(np.abs(fit.model.admittance(meas.omega, fit.theta) - meas.Y) ** 2 / np.abs(meas.Y) ** 2)
+            / 2
+        )
+    )
+    ymin = float(np.min(np.abs(meas.Y)))
+
+    def nll(x):
+        th = np.r_[fit.theta, np.exp(x[0]), np.exp(x[1]), [10.0] * lik.sample_nu]
+        v = float(lik(th))
+        return -v if math.isfinite(v) else 1e300
+
+    best = min(
+        (
+            optimize.minimize(
+                nll,
+                [math.log(rel), math.log(a * ymin)],
+                method="Nelder-Mead",
+                options={"xatol": 1e-6, "fatol": 1e-6},
+            )
+            for a in (1e-6, 1e-2)
+        ),
+        key=lambda r: r.fun,
+    )
+    return float(-best.fun)
+
+
+def band_chi2(meas: Measurement, model: Model, theta, band: Band, sigma_rel: float) -> float:
+    """χ² of the band: Σ over its points of ``|Y(θ) − Y|²/(σ |Y|)²`` (both parts)."""
+    sl = slice(band.i_lo, band.i_hi + 1)
+    with np.errstate(all="ignore"):
+        d = (model.bind(meas.omega).admittance(meas.omega, theta) - meas.Y)[sl] / np.abs(meas.Y[sl])
+    v = float(np.sum(np.abs(d) ** 2) / sigma_rel**2)
+    return v if math.isfinite(v) else float("inf")
+
+
+def band_scan(meas: Measurement, model: Model, theta, band: Band, sigma_rel: float) -> float:
+    """Largest scan statistic of the windows lying inside ``band`` (both parts)."""
+    with np.errstate(all="ignore"):
+        rel = (model.bind(meas.omega).admittance(meas.omega, theta) - meas.Y) / np.abs(meas.Y)
+    r = np.stack([rel.real, rel.imag]) / sigma_rel
+    best = 0.0
+    for L, starts, T in scan_statistics(r):
+        inside = (starts >= band.i_lo) & (starts + L - 1 <= band.i_hi)
+        if np.any(inside):
+            best = max(best, float(np.max(T[:, inside])))
+    return best if math.isfinite(best) else float("inf")
+
+
+def _identifiable(fit: FitResult, new_names: list[str], physics: str) -> tuple[bool, str, dict]:
+    model = fit.model
+    se = fit.stderr
+    added = {n: (float(v), float(se[n])) for n, v in model.as_dict(fit.theta).items() if n in new_names}
+    if fit.cov_z is None:
+        return (
+            False,
+            "the fit's Jacobian is rank-deficient: the data do not determine the new parameters",
+            added,
+        )
+    sd_z = np.sqrt(np.clip(np.diag(fit.cov_z), 0, None))
+    bad = [n for n in new_names if sd_z[model.names.index(n)] > MAX_REL_SE]
+    notes = [t.identifiability for t in model.augmentations if t.id == physics and t.identifiability]
+    if bad:
+        return False, f"not determined by the data: {', '.join(bad)} (relative sd > {MAX_REL_SE:g})", added
+    if notes:
+        return False, notes[0], added
+    return True, "every added parameter is determined by the data", added
+
+
+def fit_candidate(
+    meas: Measurement, current: FitResult, physics: str, band: Band
+) -> list[tuple[FitResult, float]]:
+    """``(fit, log Z)`` of ``physics`` added to ``current.model`` (module docstring); for
+    ``eddy_current`` one per escalated coil model. Fits that fail are left out."""
+    out = []
+    if physics == "eddy_current":
+        # up the ladder; NL's ring count by evidence: more rings until one more ring loses
+        best = -math.inf
+        for model in escalations(current.model):
+            try:
+                fit = fit_admittance(meas, model)
+            except (FitError, ValueError):
+                continue
+            lz = log_evidence(meas, fit)
+            out.append((fit, lz))
+            if model.rings is not None:  # the ring ladder
+                if best > -math.inf and not lz > best:
+                    break
+                best = max(best, lz) if math.isfinite(lz) else best
+        return out
+    term = make_term(physics)
+    try:
+        new, starts = augmentation_starts(meas, current.model, current.theta, term, band=(band.lo, band.hi))
+    except ValueError:
+        return []
+    fits = []
+    for s in starts[:STARTS_POLISHED]:
+        try:
+            fits.append(fit_admittance(meas, new, initial=s))
+        except (FitError, ValueError):
+            continue
+    ok = [f for f in fits if not f.info.get("resonance_mismatch")] or fits
+    if not ok:
+        return []
+    best = min(ok, key=lambda f: f.chi2)
+    return [(best, log_evidence(meas, best))]
+
+
+def rank_candidates(
+    meas: Measurement,
+    current: FitResult,
+    current_log_z: float,
+    band: Band,
+    sigma_rel: float,
+    physics_ids: list[str],
+    progress=None,
+    deadline: float | None = None,
+) -> list[Candidate]:
+    """Every candidate of ``physics_ids`` for ``band``, best first (accepted first, then by
+    ``Δ log Z``)."""
+    before = band_chi2(meas, current.model, current.theta, band, sigma_rel)
+    scan0 = band_scan(meas, current.model, current.theta, band, sigma_rel)
+    n_band = 2 * (band.i_hi - band.i_lo + 1)
+    out = []
+    for physics in physics_ids:
+        if deadline is not None and time.process_time() > deadline:
+            if progress:
+                progress(f"time budget reached: {physics} and later candidates not tried")
+            break
+        t0 = time.perf_counter()
+        for fit, lz in fit_candidate(meas, current, physics, band):
+            if progress:
+                progress(f"  {physics}: {fit.model.label} log Z {lz:.1f} ({time.perf_counter() - t0:.0f} s)")
+            if not math.isfinite(lz):
+                continue
+            after = band_chi2(meas, fit.model, fit.theta, band, sigma_rel)
+            new_names = [n for n in fit.model.names if n not in current.model.names]
+            ident, why, added = _identifiable(fit, new_names, physics)
+            values = fit.model.as_dict(fit.theta)
+            bad = next(
+                (
+                    w
+                    for t in fit.model.augmentations
+                    if t.id == physics and (w := t.implausible(values)) is not None
+                ),
+                None,
+            )
+            out.append(
+                Candidate(
+                    physics,
+                    fit,
+                    lz,
+                    lz - current_log_z,
+                    before,
+                    after,
+                    ident,
+                    why,
+                    n_band,
+                    scan0,
+                    band_scan(meas, fit.model, fit.theta, band, sigma_rel),
+                    added,
+                    bad,
+                )
+            )
+    # eddy_current: keep only its best rung (the ring count by evidence)
+    best_eddy = max((c for c in out if c.physics == "eddy_current"), key=lambda c: c.log_z, default=None)
+    out = [c for c in out if c.physics != "eddy_current" or c is best_eddy]
+    out.sort(key=lambda c: (not c.accepted, -c.delta_log_z))
+    return out

@@ -1,0 +1,75 @@
+"""The shape of a mismatch nothing in the catalogue explains: a low-order rational fit of the residual.
+
+Over the band, the complex relative residual ``e(ω) = (Y_meas − Y_model)/Y_model`` is fitted by
+``e(s) ≈ (a0 + a1 x + a2 x²)/(1 + b1 x + b2 x²)`` with ``x = s/ω_c`` (``ω_c`` the band's geometric
+centre), by Levy's linearisation (one real linear least-squares problem,
+``min Σ |num(x_k) − den(x_k) e_k|²``, SPEC §3.1). Its poles and zeros [rad/s] say what kind of
+feature the residual is (a complex pole pair: a resonance; real poles: a relaxation; a step: a pole
+and zero close together), in words a user can act on.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..measurement import Measurement
+from ..models import Model
+from .locate import Band
+
+__all__ = ["residual_shape", "describe_shape"]
+
+
+def residual_shape(meas: Measurement, model: Model, theta, band: Band, order: int = 2) -> dict:
+    """Rational fit of the band's relative residual (module docstring): ``{"poles_rad_s",
+    "zeros_rad_s"}`` (complex numbers as ``[re, im]`` pairs), ``rms_residual_rel`` (the
+    residual's rms), ``rms_unexplained_rel`` (after the rational fit), ``mean_real``/``mean_imag``."""
+    sl = slice(band.i_lo, band.i_hi + 1)
+    w = meas.omega[sl]
+    with np.errstate(all="ignore"):
+        Ym = model.bind(meas.omega).admittance(meas.omega, theta)[sl]
+    e = (meas.Y[sl] - Ym) / Ym
+    wc = float(np.sqrt(w[0] * w[-1]))
+    x = 1j * w / wc
+    cols = [x**i for i in range(order + 1)] + [-e * x**i for i in range(1, order + 1)]
+    A = np.stack(cols, axis=1)
+    Ar = np.concatenate([A.real, A.imag])
+    br = np.concatenate([e.real, e.imag])
+    c, *_ = np.linalg.lstsq(Ar, br, rcond=None)
+    a, b = c[: order + 1], np.r_[1.0, c[order + 1 :]]
+    fit = np.polyval(a[::-1], x) / np.polyval(b[::-1], x)
+    zeros = np.roots(a[::-1]) * wc if np.any(a[1:] != 0) else np.array([])
+    poles = np.roots(b[::-1]) * wc
+
+    def pairs(r):  # roots in the s-plane as [Re, Im] [rad/s]
+        return [[float(z.real), float(z.imag)] for z in np.asarray(r, complex)]
+
+    return {
+        "poles_rad_s": pairs(poles),
+        "zeros_rad_s": pairs(zeros),
+        "rms_residual_rel": float(np.sqrt(np.mean(np.abs(e) ** 2))),
+        "rms_unexplained_rel": float(np.sqrt(np.mean(np.abs(e - fit) ** 2))),
+        "mean_real": float(np.mean(e.real)),
+        "mean_imag": float(np.mean(e.imag)),
+    }
+
+
+def describe_shape(band: Band, shape: dict) -> str:
+    """Plain words for an unexplained band: where, how large, which parts, and the rational
+    fit's poles (a complex pair reads as a resonance at its modulus)."""
+    lo, hi = band.lo / (2 * np.pi), band.hi / (2 * np.pi)
+    words = []
+    for re, im in shape["poles_rad_s"]:
+        mod = float(np.hypot(re, im))
+        if abs(im) > 1e-6 * mod and im > 0:
+            zeta = -re / mod if mod > 0 else float("nan")
+            words.append(
+                f"a resonance-like pole pair at {mod / (2 * np.pi):.4g} Hz (damping ratio {zeta:.2g})"
+            )
+        elif abs(im) <= 1e-6 * mod:
+            words.append(f"a real pole at {abs(re) / (2 * np.pi):.4g} Hz")
+    form = "; ".join(words) if words else "no pole in the rational fit"
+    return (
+        f"unexplained mismatch of rms {100 * shape['rms_residual_rel']:.2g} % in {'/'.join(band.parts)} "
+        f"part(s) between {lo:.4g} and {hi:.4g} Hz ({band.lo:.4g}-{band.hi:.4g} rad/s); residual shape: "
+        f"{form}; no catalogue term explains it significantly"
+    )

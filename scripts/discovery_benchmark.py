@@ -1,0 +1,367 @@
+"""Concealed-effect benchmark of discrepancy discovery (issue 13, acceptance 1, 2, 3 and 5).
+
+One command::
+
+    OMP_NUM_THREADS=1 .venv/bin/python scripts/discovery_benchmark.py [--out scripts/results/discovery] \
+        [--only NAME ...] [--null-seeds 20]
+
+Simulates recordings whose physics includes effects the diagnosis is not told about (it is given
+only the base model the data was simulated from), runs :func:`bayes_emt.discovery.diagnose` on
+each, and scores: the right physics ids (every true effect named, nothing else), the reported
+band overlapping the true band (where the effect changes ``Y`` by more than the noise), the time.
+Null cases must give no finding; ``--null-seeds`` more null recordings give the false-finding
+rate. Each case's result is written as it finishes (``cases/NAME.json``) and reused on a re-run
+(resume); the score table is ``scores.md`` and ``scores.json`` in ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from bayes_emt._atomic import atomic_write_text
+from bayes_emt.discovery import diagnose
+from bayes_emt.io.simulate import simulate
+from bayes_emt.models import parse_model_spec
+from bayes_emt.reference import PAPER_TABLES
+
+PAPER_GRID = np.geomspace(1e1, 1e5, 500)  # rad/s, the paper's band (fewer points)
+SPEAKER_GRID = 2 * np.pi * np.geomspace(5.0, 2.0e4, 500)  # rad/s, 5 Hz .. 20 kHz
+# a loudspeaker-like driver: fs 45 Hz, Qms 5, Bl 7 N/A, Mms 20 g, Re 6 ohm, Le 0.5 mH
+SPEAKER = {"zeta": 0.1, "omega0": 2 * np.pi * 45.0, "phi": 7.0 / math.sqrt(0.02), "R0": 6.0, "L0": 5e-4}
+SPEAKER_II = {**{k: v for k, v in SPEAKER.items() if k != "L0"}, "L0": 6e-4, "Rmu": 40.0}
+
+
+def case(name, base, params, effects, noise, grid, seed=1, start=None, expect=None):
+    """A benchmark case: ``effects`` maps physics ids to their parameters (``{}`` for the eddy
+    escalation, whose truth is the base model itself); ``start`` the model the diagnosis starts
+    from (default ``base`` without the effects); ``expect`` the physics ids a right answer names."""
+    return {
+        "name": name,
+        "base": base,
+        "params": params,
+        "effects": effects,
+        "noise": noise,
+        "grid": grid,
+        "seed": seed,
+        "start": start or base,
+        "expect": sorted(expect if expect is not None else effects),
+    }
+
+
+def cases() -> list[dict]:
+    UD, II, I, NL = (dict(PAPER_TABLES[k]) for k in ("UD", "II", "I", "NL"))
+    return [
+        case("null_UD_0.3%", "UD", UD, {}, 0.003, PAPER_GRID),
+        case("null_speaker_I_1%", "I", SPEAKER, {}, 0.01, SPEAKER_GRID),
+        case("null_II_0.1%", "II", II, {}, 0.001, PAPER_GRID),
+        case("Cp_UD_strong", "UD", UD, {"winding_capacitance": {"Cp": 2e-8}}, 0.003, PAPER_GRID),
+        case("Cp_II_near_limit", "II", II, {"winding_capacitance": {"Cp": 1.5e-8}}, 0.005, PAPER_GRID),
+        case(
+            "mode2_UD",
+            "UD",
+            UD,
+            {"second_resonance": {"zeta2": 0.02, "omega2": 2000.0, "phi2": 4.9}},
+            0.002,
+            PAPER_GRID,
+        ),
+        case(
+            "mode2_speaker_near_limit",
+            "I",
+            SPEAKER,
+            {"second_resonance": {"zeta2": 0.03, "omega2": 2 * np.pi * 400, "phi2": 12.0}},
+            0.005,
+            SPEAKER_GRID,
+        ),
+        case(
+            "vented_box_speaker",
+            "I",
+            SPEAKER,
+            {"enclosure_port": {"Lb": 0.02, "omegab": 2 * np.pi * 35.0, "zetab": 0.05}},
+            0.003,
+            SPEAKER_GRID,
+        ),
+        case(
+            "creep_speaker", "I", SPEAKER, {"suspension_creep": {"lambda_creep": 0.06}}, 0.002, SPEAKER_GRID
+        ),
+        case("drift_UD", "UD", UD, {"thermal_drift": {"drift": 0.02}}, 0.002, PAPER_GRID),
+        case(
+            "semi_speaker",
+            "I",
+            SPEAKER,
+            {"semi_inductance": {"K_semi": 0.02, "n_semi": 0.6}},
+            0.005,
+            SPEAKER_GRID,
+        ),
+        case("lr2_speaker", "I", SPEAKER, {"lr2": {"L_lr2": 3e-4, "R_lr2": 3.0}}, 0.003, SPEAKER_GRID),
+        case("lead_II", "II", II, {"lead_impedance": {"Rl": 0.1, "Ll": 2e-6}}, 0.002, PAPER_GRID),
+        case(
+            "artifact_UD",
+            "UD",
+            UD,
+            {"measurement_artifact": {"omegas": 3000.0, "delta_s": 0.01, "psi_s": 0.01}},
+            0.002,
+            PAPER_GRID,
+        ),
+        case("eddy_NL5_from_I", "NL", NL, {}, 0.002, PAPER_GRID, start="I", expect=["eddy_current"]),
+        case("eddy_UD_from_II", "UD", UD, {}, 0.005, PAPER_GRID, start="II", expect=["eddy_current"]),
+        case(
+            "two_Cp_drift_UD",
+            "UD",
+            UD,
+            {"winding_capacitance": {"Cp": 2e-8}, "thermal_drift": {"drift": 0.03}},
+            0.002,
+            PAPER_GRID,
+        ),
+        case(
+            "two_mode2_Cp_speaker",
+            "II",
+            SPEAKER_II,
+            {
+                "second_resonance": {"zeta2": 0.03, "omega2": 2 * np.pi * 800, "phi2": 20.0},
+                "winding_capacitance": {"Cp": 3e-9},
+            },
+            0.003,
+            SPEAKER_GRID,
+        ),
+        case(
+            "two_artifact_mode2_II",
+            "II",
+            II,
+            {
+                "measurement_artifact": {"omegas": 5000.0, "delta_s": 0.02, "psi_s": -0.02},
+                "second_resonance": {"zeta2": 0.02, "omega2": 800.0, "phi2": 3.0},
+            },
+            0.003,
+            PAPER_GRID,
+        ),
+    ]
+
+
+def _spec(c) -> str:
+    base = "NL(5)" if c["base"] == "NL" else c["base"]
+    return base + "".join("+" + e for e in c["effects"])
+
+
+def simulate_case(c, seed=None):
+    model = parse_model_spec(_spec(c))
+    vals = dict(c["params"])
+    for e in c["effects"].values():
+        vals.update(e)
+    return (
+        model,
+        vals,
+        simulate(
+            model,
+            vals,
+            c["grid"],
+            noise=c["noise"],
+            seed=c["seed"] if seed is None else seed,
+            source=c["name"],
+        ),
+    )
+
+
+def true_bands(c, model, vals) -> dict:
+    """Per effect, the band [rad/s] where removing it changes ``Y`` by more than the noise."""
+    out = {}
+    om = c["grid"]
+    Y = model.bind(om).admittance(om, model.vector(vals))
+    for e in c["effects"]:
+        m0 = model.without(next(t for t in model.augmentations if t.id == e)).bind(om)
+        Y0 = m0.admittance(om, m0.vector({k: v for k, v in vals.items() if k in m0.names}))
+        big = np.abs(Y - Y0) / np.abs(Y) > c["noise"]
+        idx = np.flatnonzero(big)
+        out[e] = [float(om[idx[0]]), float(om[idx[-1]])] if idx.size else None
+    if not c["effects"] and c["expect"]:
+        out[c["expect"][0]] = [float(om[0]), float(om[-1])]
+    return out
+
+
+def overlaps(a, b) -> bool:
+    return a is not None and b is not None and a[0] <= b[1] and b[0] <= a[1]
+
+
+def run_case(c, out: Path) -> dict:
+    path = out / "cases" / f"{c['name']}.json"
+    if path.exists():
+        return json.loads(path.read_text())
+    model, vals, meas = simulate_case(c)
+    start = parse_model_spec("NL(5)" if c["start"] == "NL" else c["start"])
+    t, cpu = time.perf_counter(), time.process_time()
+    d = diagnose(meas, start, seed=0)
+    seconds, cpu = time.perf_counter() - t, time.process_time() - cpu
+    found = [f.physics for f in d.findings]
+    bands = true_bands(c, model, vals)
+    rec = {
+        "name": c["name"],
+        "truth": _spec(c),
+        "start": c["start"],
+        "noise": c["noise"],
+        "expect": c["expect"],
+        "found": found,
+        "final_model": d.final_model,
+        "seconds": seconds,
+        "cpu_seconds": cpu,
+        "right": sorted(found) == c["expect"],
+        "band_overlap": all(
+            overlaps(f.band and [f.band.lo, f.band.hi], bands.get(f.physics))
+            for f in d.findings
+            if f.physics in bands
+        ),
+        "true_bands_rad_s": bands,
+        "diagnosis": d.details(),
+        "final_parameters": d.final_fit.parameters,
+        "true_parameters": vals,
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(path, json.dumps(rec, indent=1, default=float))
+    return rec
+
+
+def physics_checks(r) -> dict:
+    """Acceptance 2 and 3: the escalated model, and for a vented box the port tuning and the
+    driver's fs and Qms (= 1/(2 zeta)) against the truth (relative errors)."""
+    fin, tru = r["final_parameters"], r["true_parameters"]
+    out = {}
+    if "enclosure_port" in r["expect"] and "omegab" in fin:
+        out["omegab_rel_err"] = fin["omegab"] / tru["omegab"] - 1
+    if "enclosure_port" in r["expect"]:
+        out["fs_rel_err"] = fin["omega0"] / tru["omega0"] - 1
+        out["Qms_rel_err"] = tru["zeta"] / fin["zeta"] - 1
+    if "eddy_current" in r["expect"]:
+        out["final_model"] = r["final_model"]
+        out["delta_log_evidence"] = [f["delta_log_evidence"] for f in r["diagnosis"]["findings"]]
+        out["rms_rel_residual"] = r["diagnosis"]["rms_rel_residual"]
+    return out
+
+
+def run_nulls(out: Path, n: int) -> dict:
+    path = out / "null_seeds.json"
+    done = json.loads(path.read_text()) if path.exists() else {"runs": []}
+    base = [c for c in cases() if c["name"].startswith("null_")]
+    while len(done["runs"]) < n:
+        i = len(done["runs"])
+        c = base[i % len(base)]
+        _, _, meas = simulate_case(c, seed=1000 + i)
+        t = time.perf_counter()
+        d = diagnose(meas, parse_model_spec(c["base"]), seed=i)
+        done["runs"].append(
+            {
+                "case": c["name"],
+                "seed": 1000 + i,
+                "findings": [f.physics for f in d.findings],
+                "bands": len(d.final_location.bands) if d.final_location else 0,
+                "seconds": time.perf_counter() - t,
+            }
+        )
+        atomic_write_text(path, json.dumps(done, indent=1))
+    return done
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="scripts/results/discovery")
+    ap.add_argument("--only", nargs="*", default=None)
+    ap.add_argument("--null-seeds", type=int, default=20)
+    ap.add_argument("--nulls-only", action="store_true", help="run only the null seeds")
+    ap.add_argument("--report-only", action="store_true",
+                    help="score the cases already finished in --out (run nothing new)")
+    a = ap.parse_args(argv)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    recs = []
+    for c in cases():
+        if a.only and c["name"] not in a.only:
+            continue
+        if a.nulls_only or (a.report_only and not (out / "cases" / f"{c['name']}.json").exists()):
+            continue
+        r = run_case(c, out)
+        recs.append(r)
+        print(
+            f"{r['name']:28s} expect {','.join(r['expect']) or '-':40s} "
+            f"found {','.join(r['found']) or '-':40s} {'RIGHT' if r['right'] else 'WRONG'} "
+            f"band {'ok' if r['band_overlap'] else 'MISS'} {r['seconds']:.0f} s",
+            flush=True,
+        )
+    if a.report_only:
+        p = out / "null_seeds.json"
+        nulls = json.loads(p.read_text()) if p.exists() else {"runs": []}
+    else:
+        nulls = run_nulls(out, a.null_seeds) if a.null_seeds and not a.only else {"runs": []}
+    effects = [(r, e) for r in recs for e in r["expect"]]
+    named = sum(e in r["found"] for r, e in effects)
+    extra = sum(len(set(r["found"]) - set(r["expect"])) for r in recs)
+    null_cases = [r for r in recs if not r["expect"]]
+    false = sum(bool(x["findings"]) for x in nulls["runs"])
+    checks = {r["name"]: physics_checks(r) for r in recs if physics_checks(r)}
+    summary = {
+        "physics_checks": checks,
+        "cases": len(recs),
+        "effects": len(effects),
+        "effects_named": named,
+        "effects_named_fraction": named / len(effects) if effects else None,
+        "cases_right": sum(r["right"] for r in recs),
+        "extra_findings": extra,
+        "null_cases_with_finding": sum(bool(r["found"]) for r in null_cases),
+        "null_seeds": len(nulls["runs"]),
+        "null_seeds_with_finding": false,
+        "band_overlap_all": all(r["band_overlap"] for r in recs),
+        "seconds_max": max((r["seconds"] for r in recs), default=None),
+        "seconds_median": float(np.median([r["seconds"] for r in recs])) if recs else None,
+    }
+    lines = [
+        "| case | truth | start | noise | expected | found | right | band overlaps | seconds |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in recs:
+        lines.append(
+            f"| {r['name']} | {r['truth']} | {r['start']} | {100 * r['noise']:.1f} % | "
+            f"{', '.join(r['expect']) or '-'} | {', '.join(r['found']) or '-'} | "
+            f"{'yes' if r['right'] else 'NO'} | "
+            f"{'yes' if r['band_overlap'] else 'NO'} | {r['seconds']:.0f} |"
+        )
+    lines.append("")
+    lines.append("```\n" + json.dumps(summary, indent=1) + "\n```")
+    if not a.only and not a.nulls_only:
+        atomic_write_text(out / "scores.md", "\n".join(lines) + "\n")
+        atomic_write_text(
+            out / "scores.json",
+            json.dumps(
+                {
+                    "summary": summary,
+                    "cases": [
+                        {
+                            k: r[k]
+                            for k in (
+                                "name",
+                                "truth",
+                                "start",
+                                "noise",
+                                "expect",
+                                "found",
+                                "right",
+                                "band_overlap",
+                                "seconds",
+                                "final_model",
+                            )
+                        }
+                        for r in recs
+                    ],
+                    "null_seeds": nulls["runs"],
+                },
+                indent=1,
+            ),
+        )
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,160 @@
+"""Discrepancy discovery on every real recording in ../shared/realdata (issue 13, acceptance 4).
+
+One command::
+
+    OMP_NUM_THREADS=1 .venv/bin/python scripts/discovery_realdata.py \
+        [--out scripts/results/discovery_realdata]
+
+Each recording (read and band-limited as :data:`bayes_emt.io.datasets.REALDATA_FILES` says) is
+diagnosed from the base model the evidence prefers; the findings, what stays unexplained, the rms
+relative residual before and after and how R0, Qms (= 1/(2ζ)), fs and φ̄ moved are written per
+recording (``NAME.json``, reused on a re-run: resume) and in ``table.md``. For the LS10-44
+added-mass pair (0.100 kg added) the joint added-mass fit is run with the starting and the final
+model of the free-air run, giving how the physical mass m [kg] and force factor Bl [N/A] moved.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+import warnings
+from pathlib import Path
+
+from bayes_emt._atomic import atomic_write_text
+from bayes_emt.added_mass.fit import fit_added_mass
+from bayes_emt.discovery import diagnose
+from bayes_emt.io.datasets import REALDATA_FILES, load_realdata
+from bayes_emt.models import parse_model_spec
+
+REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata"
+PAIR = ("dayton_LS10-44_freeair_run2.txt", "dayton_LS10-44_added100g_run2.txt", 0.100)
+
+
+def run_one(name: str, out: Path) -> dict:
+    path = out / f"{name}.json"
+    if path.exists():
+        return json.loads(path.read_text())
+    meas = load_realdata(REAL, name)
+    t = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = diagnose(meas, None, progress=lambda m: print("   ", m, flush=True))
+    rec = {"file": name, "n_points": meas.n_points, "seconds": time.perf_counter() - t, **d.details()}
+    moved = {}
+    for k in ("R0", "Qms", "fs_hz", "phi"):
+        a, b = d.baseline_fit.parameters, d.final_fit.parameters
+        va = 1 / (2 * a["zeta"]) if k == "Qms" else a["omega0"] / (2 * math.pi) if k == "fs_hz" else a[k]
+        vb = 1 / (2 * b["zeta"]) if k == "Qms" else b["omega0"] / (2 * math.pi) if k == "fs_hz" else b[k]
+        moved[k] = {"before": va, "after": vb, "relative_change": (vb - va) / va}
+    rec["moved"] = moved
+    atomic_write_text(path, json.dumps(rec, indent=1, default=float))
+    return rec
+
+
+def added_mass(recs: dict, out: Path) -> dict | None:
+    path = out / "added_mass_pair.json"
+    if path.exists():
+        return json.loads(path.read_text())
+    a, b, dm = PAIR
+    if a not in recs:
+        return None
+    base, loaded = load_realdata(REAL, a), load_realdata(REAL, b)
+    res = {}
+    for which in ("baseline_model", "final_model"):
+        spec = recs[a][which]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = fit_added_mass(base, loaded, dm, parse_model_spec(spec))
+        res[which] = {
+            "model": spec,
+            "m_kg": r.values["m"],
+            "Bl_N_per_A": r.values["phi_raw"],
+            "k_N_per_m": r.values["k"],
+            "R0_ohm": r.values["R0"],
+            "rms_rel_residual": list(r.rms_rel_residual),
+        }
+    for q in ("m_kg", "Bl_N_per_A", "k_N_per_m", "R0_ohm"):
+        x0, x1 = res["baseline_model"][q], res["final_model"][q]
+        res.setdefault("relative_change", {})[q] = (x1 - x0) / x0
+    atomic_write_text(path, json.dumps(res, indent=1))
+    return res
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="scripts/results/discovery_realdata")
+    ap.add_argument("--only", nargs="*", default=None)
+    ap.add_argument("--report-only", action="store_true",
+                    help="tabulate the recordings already diagnosed in --out (and the added-mass pair)")
+    a = ap.parse_args(argv)
+    if not REAL.exists():
+        print(f"no real recordings at {REAL}")
+        return 2
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    recs = {}
+    for name in sorted(REALDATA_FILES):
+        if (a.only and name not in a.only) or (a.report_only and not (out / f"{name}.json").exists()):
+            continue
+        print(name, flush=True)
+        recs[name] = run_one(name, out)
+    pair = added_mass(recs, out) if not a.only else None
+    lines = [
+        "| recording | start | final | findings | unexplained bands (Hz) | rms before | rms after | "
+        "R0 | Qms | fs | seconds |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name, r in recs.items():
+        fnd = (
+            "; ".join(
+                f"{f['physics']} ({f['band_hz'][0]:.3g}-{f['band_hz'][1]:.3g} Hz, "
+                f"dlogZ {f['delta_log_evidence']:.0f})"
+                for f in r["findings"]
+            )
+            or "none"
+        )
+        une = (
+            "; ".join(f"{u['band_hz'][0]:.3g}-{u['band_hz'][1]:.3g}" for u in r["unexplained_detail"])
+            or "none"
+        )
+        mv = r["moved"]
+        lines.append(
+            f"| {name} | {r['baseline_model']} | {r['final_model']} | {fnd} | {une} | "
+            f"{100 * r['rms_rel_residual']['baseline']:.2f} % | "
+            f"{100 * r['rms_rel_residual']['final']:.2f} % | "
+            + " | ".join(
+                f"{mv[k]['before']:.4g} -> {mv[k]['after']:.4g} ({100 * mv[k]['relative_change']:+.1f} %)"
+                for k in ("R0", "Qms", "fs_hz")
+            )
+            + f" | {r['seconds']:.0f} |"
+        )
+    if pair:
+        lines += [
+            "",
+            "LS10-44 added-mass pair (0.100 kg), joint fit with the starting and the final model:",
+            "",
+            "| model | m [kg] | Bl [N/A] | k [N/m] | R0 [ohm] |",
+            "|---|---|---|---|---|",
+        ]
+        for which in ("baseline_model", "final_model"):
+            p = pair[which]
+            lines.append(
+                f"| {p['model']} | {p['m_kg']:.4g} | {p['Bl_N_per_A']:.4g} | {p['k_N_per_m']:.4g} | "
+                f"{p['R0_ohm']:.4g} |"
+            )
+        rc = pair["relative_change"]
+        lines.append(
+            f"| change | {100 * rc['m_kg']:+.1f} % | {100 * rc['Bl_N_per_A']:+.1f} % | "
+            f"{100 * rc['k_N_per_m']:+.1f} % | {100 * rc['R0_ohm']:+.1f} % |"
+        )
+    if not a.only:
+        atomic_write_text(out / "table.md", "\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
