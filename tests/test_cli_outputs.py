@@ -63,7 +63,7 @@ def _commands(data, params, target):
         "simulate --out": ["simulate", "--params", p, "--out", t, "--points", "50"],
         "shunt --json": ["shunt", "--params", p, "--json", t],
         "shunt --plot": ["shunt", "--params", p, "--plot", t],
-        "demo --out": ["demo", "--data", d, "--no-sample", "--out", t],
+        "demo --out": ["demo", "--data", d, "--quick", "--out", t],
     }
 
 
@@ -148,7 +148,7 @@ def test_two_outputs_naming_one_file_and_an_output_folder_that_is_a_file(tmp_pat
     (["sample", "{data}", "--model", "I", "--seed", "-1"], "argument --seed: must be a non-negative integer, "
                                                             "got '-1'"),
     (["simulate", "--params", "{params}", "--out", "{tmp}/s.csv", "--seed", "-1"], "argument --seed"),
-    (["demo", "--seed", "-3", "--no-sample", "--out", "{tmp}/demo"], "argument --seed"),
+    (["demo", "--seed", "-3", "--quick", "--out", "{tmp}/demo"], "argument --seed"),
     (["simulate", "--params", "{params}", "--out", "{tmp}/s.csv", "--points", "2"],
      "argument --points: must be an integer >= 3 (the readers, and so fit, refuse fewer), got '2'"),
     (["sample", "{data}", "--model", "I", "--nu", "3"], "--nu 3.0 applies to --likelihood student only"),

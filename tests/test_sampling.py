@@ -247,7 +247,8 @@ def test_sigkill_and_resume_loses_nothing(meas, tmp_path):
         # converges here at 600 steps, exit 0; a run that does not stops at the 800-step budget,
         # exit 1); the killed and resumed run ends at the same step, and the kill came before it
         assert na == nb and killed_at < na
-        assert (na == 800) if ref.returncode == 1 else (na < 800 and na % 100 == 0)
+        # the rule is checked every 100 steps within the budget; a run that misses it uses it all
+        assert na <= 800 and na % 100 == 0 and (ref.returncode == 0 or na == 800), (na, ref.returncode)
         for key in ("chain", "log_prob", "blobs"):
             np.testing.assert_array_equal(a["mcmc"][key][:na], b["mcmc"][key][:nb])
     import arviz as az
