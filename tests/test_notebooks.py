@@ -35,6 +35,9 @@ def test_every_notebook_is_paired_and_stripped():
 @pytest.mark.parametrize("name", [
     "quickstart",
     "walkthrough",
+    "evidence_and_robust_shunt",  # three models' evidence and a robust shunt: ~35 s here
+    # the diagnosis of the concealed-mode recording: ~85 s here, so marked slow
+    pytest.param("discrepancy_discovery", marks=pytest.mark.slow),
     # the joint fit of two 1980-point recordings: ~45 s on a loaded 2-core machine, so marked slow
     pytest.param("real_loudspeaker_added_mass", marks=[pytest.mark.slow, pytest.mark.skipif(
         not (REAL / "dayton_LS10-44_freeair_run2.txt").exists(), reason="../shared/realdata absent")]),
@@ -52,5 +55,9 @@ def test_notebook_runs(name, monkeypatch):
     assert text.strip(), "the notebook printed nothing"
     if name == "quickstart":
         assert "ohm" in text and "rad/s" in text and "Hz" in text and "NOT converged" in text
+    if name == "evidence_and_robust_shunt":
+        assert "preferred: NL" in text and "nats" in text and "robust   Rs" in text and "P(unstable)" in text
+    if name == "discrepancy_discovery":
+        assert "finding: second_resonance" in text and "NL(5)+second_resonance" in text
     if name == "real_loudspeaker_added_mass":
         assert "kg" in text and "N/m" in text and "N/A" in text
