@@ -7,30 +7,13 @@ import emcee
 import h5py
 import numpy as np
 import pytest
+from skewed_target import skewed_target
 
 from bayes_emt import ConvergenceWarning, build_model, simulate
 from bayes_emt.inference.likelihood import Likelihood
 from bayes_emt.inference.moves import EnsembleTMove, production_moves, proposal_mismatch, warmup_moves
 from bayes_emt.inference.sampling import SamplerSettings, initial_walkers, sample_posterior
 from bayes_emt.reference import PAPER_TABLES
-
-
-def _skewed_target():
-    """A linear map of independent log-normals in 4-D (heavy right tails, correlated), with the
-    quantiles of 10^6 direct draws as the known answer."""
-    rng = np.random.default_rng(5)
-    A = rng.standard_normal((4, 4))
-    Ai = np.linalg.inv(A)
-
-    def logp(y):
-        x = y @ Ai.T
-        with np.errstate(all="ignore"):
-            lx = np.log(x)
-            v = np.sum(-0.5 * (lx / 0.6) ** 2 - lx, axis=1)
-        return np.where(np.all(x > 0, axis=1), v, -np.inf)
-
-    draw = lambda n: np.exp(0.6 * rng.standard_normal((n, 4))) @ A.T  # noqa: E731
-    return logp, draw
 
 
 def _quantile_error(chain, ref):
@@ -42,7 +25,7 @@ def _quantile_error(chain, ref):
 def test_moves_sample_a_skewed_target_exactly(which):
     # known answer: quantiles of the direct draws; Monte Carlo error of 32 walkers x 6000 steps
     # with tau <~ 20 is ~2 % of a standard deviation, the tolerance 10 %
-    logp, draw = _skewed_target()
+    logp, draw = skewed_target()
     ref = draw(1_000_000)
     crude = draw(400) * 1.3  # a proposal fitted to a poor, too wide sample: still exact, just slower
     moves = {"production": production_moves(crude), "ensemble-t": [(EnsembleTMove(), 1.0)],
