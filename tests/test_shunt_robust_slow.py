@@ -33,8 +33,9 @@ def test_acceptance_2_bundled_nl_posterior():
 
 @pytest.fixture(scope="module")
 def noisy_posterior():
+    # the study's budget (scripts/robust_shunt_study.py): 40000 steps, ~6 min here
     meas = simulate(build_model("NL"), PAPER_TABLES["NL"], noise=0.02, seed=20261124)
-    return sample_posterior(meas, build_model("NL"), seed=1, progress=False)
+    return sample_posterior(meas, build_model("NL"), seed=1, progress=False, max_steps=40_000)
 
 
 @pytest.mark.xfail(strict=True, reason=(
