@@ -511,8 +511,10 @@ def _diagnose(d: _Demo, meas, path: Path, model: str) -> None:
 
         folder = d.out / "diagnosis"
         folder.mkdir(exist_ok=True)
+        # no time budget: the diagnosis must not depend on how fast or busy the machine is (under
+        # load the default 240 CPU s ran out before second_resonance was tried)
         argv = [str(path), "--model", model, "--json", str(diag_json), "--plot", str(folder),
-                "--seed", str(d.args.seed)]
+                "--seed", str(d.args.seed), "--time-budget", "0"]
         if d.args.quick:
             argv += ["--max-rounds", "1"]
         try:

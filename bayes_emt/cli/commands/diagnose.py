@@ -15,12 +15,21 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ._common import add_data_args, add_model_args, add_output_args, add_parser, int_at_least, seed
+from ._common import (
+    add_data_args,
+    add_model_args,
+    add_output_args,
+    add_parser,
+    int_at_least,
+    nonnegative_float,
+    seed,
+)
 
 EXAMPLES = """\
 bayes-emt diagnose speaker.zma  (start from the model the evidence prefers)
 bayes-emt diagnose speaker.zma --model UD --json diagnosis.json --plot figures/
 bayes-emt diagnose bench.csv --model NL --rings 5 --max-rounds 2 --quiet
+bayes-emt diagnose speaker.zma --model UD --time-budget 0  (no time budget: the same result on any machine)
 """
 
 
@@ -36,6 +45,9 @@ def register(sub) -> None:
                    help="seed of the scan's calibration replicates (default 0)")
     p.add_argument("--max-rounds", type=int_at_least(1), default=4,
                    help="at most this many findings (default 4)")
+    p.add_argument("--time-budget", type=nonnegative_float, default=240.0, metavar="CPU_S",
+                   help="CPU seconds after which no further candidate is fitted (a warning says so; "
+                        "default 240); 0: no budget, so the result does not depend on the machine's speed")
     add_output_args(p)
     p.set_defaults(func=run)
 
@@ -58,6 +70,7 @@ def run(args) -> int:
         model,
         seed=args.seed,
         max_rounds=args.max_rounds,
+        time_budget=args.time_budget or None,
         progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)),
     )
     print(
