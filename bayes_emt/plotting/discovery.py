@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from . import figure_axes
+
 __all__ = ["plot_residuals", "plot_bode_overlay"]
 
 
@@ -28,13 +30,9 @@ def plot_residuals(diagnosis, meas, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
     import numpy as np
 
-    if ax is None:
-        fig, ax = plt.subplots(2, 1, sharex=True, figsize=(8.0, 5.5))
-    else:
-        fig = ax[0].figure
+    fig, ax = figure_axes(ax, (8.0, 5.5), rows=2)
     f = meas.f_hz
     for fit, label, color in (
         (diagnosis.baseline_fit, f"start: {diagnosis.baseline_model}", "tab:gray"),
@@ -53,7 +51,6 @@ def plot_residuals(diagnosis, meas, ax=None):
     ax[1].set_xlabel("frequency [Hz]")
     ax[0].legend(fontsize=8)
     ax[0].set_title(f"{diagnosis.source}: residuals (green: explained band, red: unexplained)", fontsize=9)
-    fig.tight_layout()
     return fig
 
 
@@ -64,13 +61,9 @@ def plot_bode_overlay(diagnosis, meas, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
     import numpy as np
 
-    if ax is None:
-        fig, ax = plt.subplots(2, 1, sharex=True, figsize=(8.0, 5.5))
-    else:
-        fig = ax[0].figure
+    fig, ax = figure_axes(ax, (8.0, 5.5), rows=2)
     f = meas.f_hz
     Z = 1.0 / meas.Y
     ax[0].plot(f, np.abs(Z), ".", ms=2, color="k", label="data")
@@ -90,5 +83,4 @@ def plot_bode_overlay(diagnosis, meas, ax=None):
     ax[1].set_ylabel("phase of Z [deg]")
     ax[1].set_xlabel("frequency [Hz]")
     ax[0].legend(fontsize=8)
-    fig.tight_layout()
     return fig

@@ -14,6 +14,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from ..shunt import rc_impedance, receptance
+from . import figure_axes
 
 __all__ = ["plot_gain_bands", "plot_attenuation_distributions", "plot_stability_boundary"]
 
@@ -123,7 +124,7 @@ def plot_stability_boundary(res, *, ax=None) -> Figure:
     draws (median and largest; unstable to the left), and the nominal and robust shunts."""
     if not res.boundary:
         raise ValueError("the result holds no stability-boundary data: design with boundary_points > 0")
-    fig, ax = _axes(ax)
+    fig, ax = figure_axes(ax, (6.8, 4.4))
     cs = res.boundary["Cs"]
     for g, grp in enumerate(res.groups):
         sel = res.group == g

@@ -14,15 +14,9 @@ from matplotlib.figure import Figure
 from ..models import Model
 from ..shunt import Plant, ShuntEvaluation, instability_threshold, rc_impedance
 from ..shunt.stability import threshold_grid
+from . import figure_axes
 
 __all__ = ["plot_receptance", "plot_attenuation_map"]
-
-
-def _axes(ax):
-    if ax is None:
-        fig = Figure(figsize=(6.4, 4.4), layout="constrained")
-        return fig, fig.add_subplot()
-    return ax.figure, ax
 
 
 def plot_receptance(design: ShuntEvaluation, model: Model, theta, *, ax=None, span: float = 3.0,
@@ -37,7 +31,7 @@ def plot_receptance(design: ShuntEvaluation, model: Model, theta, *, ax=None, sp
     span : frequency range ``ω0/span .. ω0·span``.
     others : further shunts drawn on the same plant (e.g. other models' designs).
     """
-    fig, ax = _axes(ax)
+    fig, ax = figure_axes(ax)
     plant = Plant(model, theta)
     omega = np.geomspace(plant.omega0 / span, plant.omega0 * span, 2000)
     f = omega / (2 * math.pi)
@@ -70,7 +64,7 @@ def plot_attenuation_map(design: ShuntEvaluation, model: Model, theta, *, ax=Non
     cs_span : Cs from ``Cs·(1 − cs_span)`` to ``Cs·(1 + cs_span)``.
     points : grid points per axis.
     """
-    fig, ax = _axes(ax)
+    fig, ax = figure_axes(ax)
     plant = Plant(model, theta)
     grid = threshold_grid(model, theta)
     if rs_span is None:
