@@ -86,19 +86,45 @@ def test_bridge_on_emcee_draws_recovers_the_evidence_15d(problem):
     assert abs(br.log_z - p.truth) < 3 * max(br.err, FLOOR), (br.log_z, br.err, p.truth)
 
 
-# NOT MET (issue 11, acceptance 1): on the 15-D log-normal under uniform priors, dynesty's random
-# walk comes out far low; measured (n_live 200, seed 7, truth −44.94 nats): walks 35 −63.9 ± 0.55,
-# walks 100 −49.9 ± 0.50, rslice −55.0 ± 0.53, and dynesty's own unbatched rwalk (walks 35)
-# −59.1 ± 0.53, so it is the sampler on this skewed, cube-edge target, not the batching. Kept as
-# a strict xfail so that a fix shows up.
+# NOT MET (issue 11, acceptance 1): with the package's own settings (NestedSettings(): n_live 100,
+# rwalk, walks 100, bound multi) the 15-D log-normal under uniform priors comes out low. Measured
+# (truth -44.94 nats, (log Z - truth)/err): seeds 1, 2, 3, 4, 7 -> -7.2, -12.4, -0.6, -2.9, -6.0
+# (log Z -49.9, -53.9, -45.3, -46.8, -49.2 +- 0.65-0.72), while the Gaussian in a box (-0.9..+1.7)
+# and the linear-Gaussian (-0.4..+1.1) pass with the same settings and seeds. Comparing the dead
+# points' log X with the exact X(L) (a 15-fold convolution) puts the error in the phase
+# -50 < log L < -20 (log X -17 to -29), where the constrained region is most skewed in the unit
+# cube (per-coordinate skewness 1.5-1.7, tails out to u ~ 0.5 against a bulk at u ~ 0.05): 100
+# random-walk steps do not decorrelate a new point from its start there. More steps cure it
+# (walks 200: -1.8, -1.5, -3.7, +1.1 (seeds 1, 2, 3, 7); walks 300: -0.9, -2.5, -0.7, +1.9, +0.4
+# (seeds 1, 2, 3, 4, 7) at 3x the calls), but 3x the calls on the 17-parameter NL model (158 s,
+# 2.2 M calls for its nested run on the bundled data) would break the 10-minute budget of
+# acceptance 5; dynesty's sample="slice" also recovers it (+0.5, +0.6, +0.5, +1.8, seeds 1, 2, 3, 7)
+# at 2.3x the calls but is not batched here (86 s against 6 s). Changes at the same cost do not:
+# target acceptance 0.234 (2 of 4 seeds beyond 3 sigma) or 0.15 (1 of 8, mean -1.9), faster
+# scale tuning (-6.9 to -10.6 on seeds 1, 2, 4, 7), bound single (-12 on seed 7); bound none is unbiased
+# here (10 seeds, mean +0.2) but puts model I on the bundled data 160 and 1560 nats below the
+# default runs, which agree within 2. Strict, so a fix shows up.
 _LOGNORMAL_15D = pytest.param(LogNormalUnderUniform, marks=pytest.mark.xfail(
-    strict=True, reason="dynesty rwalk/rslice underestimate log Z by 5-19 nats on the 15-D log-normal"))
+    strict=True, reason="with NestedSettings() (walks 100) dynesty's rwalk comes out 2-12 sigma low on "
+                        "the 15-D log-normal under uniform priors; walks 300 recovers it at 3x the cost"))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("problem", [GaussianInBox, LinearGaussian, _LOGNORMAL_15D],
                          ids=["GaussianInBox", "LinearGaussian", "LogNormalUnderUniform"])
 def test_nested_recovers_the_evidence_15d(problem):
+    """The package's own nested settings (what ``bayes-emt compare`` uses on real models)."""
     p = problem(15)
-    run = run_nested(p, seed=7, settings=NestedSettings(n_live=200, walks=35))
+    run = run_nested(p, seed=7, settings=NestedSettings())
+    assert run.converged
+    assert abs(run.log_z - p.truth) < 3 * run.log_z_err, (run.log_z, run.log_z_err, p.truth)
+
+
+@pytest.mark.slow
+def test_nested_recovers_the_15d_lognormal_with_longer_walks():
+    """The remedy the xfail above names (``--walks 300``, 3x the calls): measured within 3 errors for
+    seeds 1, 2, 3, 4, 7 ((log Z - truth)/err = -0.9, -2.5, -0.7, +1.9, +0.4)."""
+    p = LogNormalUnderUniform(15)
+    run = run_nested(p, seed=7, settings=NestedSettings(walks=300))
+    assert run.converged
     assert abs(run.log_z - p.truth) < 3 * run.log_z_err, (run.log_z, run.log_z_err, p.truth)
