@@ -24,6 +24,7 @@ from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from .candidates import candidate_physics
+from .evidence import evidence
 from .locate import ALPHA, Band, Location, locate_mismatch
 from .name import Candidate, log_evidence, max_log_likelihood, rank_candidates
 from .shape import describe_shape, residual_shape
@@ -40,7 +41,9 @@ MAX_BANDS_PER_ROUND = 3
 class Finding:
     """One accepted explanation: the physics id, the band it explains, ``Δ log Z`` [nats], the band's
     χ² before and after, whether the data determine it, the parameters it adds and those that moved,
-    the model after it, and a plain-words verdict."""
+    the model after it, a plain-words verdict, and how its evidence was obtained
+    (``evidence_method``: ``"laplace"``, or the fallback ``"laplace_subspace"`` of :mod:`.evidence`,
+    which a warning then names)."""
 
     physics: str
     band: Band
@@ -53,6 +56,8 @@ class Finding:
     parameters: dict
     model_spec: str
     explanation: str
+    evidence_method: str = "laplace"
+    evidence_note: str = ""
 
     def to_json_dict(self) -> dict:
         return {
@@ -255,7 +260,13 @@ def diagnose(
         )
     else:
         fit = fit_admittance(meas, model)
-        lz = log_evidence(meas, fit)
+        ev0 = evidence(meas, fit)
+        lz = ev0.log_z
+        if ev0.fallback and math.isfinite(lz):
+            warn.append(
+                f"the Laplace evidence of the starting model {fit.model.label} failed; its log Z is "
+                f"Laplace on the identifiable subspace with the flat directions integrated ({ev0.note})"
+            )
     if not math.isfinite(lz):
         lz = max_log_likelihood(meas, fit)
         warn.append(
@@ -300,6 +311,8 @@ def diagnose(
                             "identifiable": c.identifiable,
                             "accepted": c.accepted,
                             "implausible": c.implausible,
+                            "evidence_method": c.evidence_method,
+                            "evidence_note": c.evidence_note,
                         }
                         for c in ranked
                     ],
@@ -340,8 +353,15 @@ def diagnose(
                 c.fit.model.label,
                 _explain(c, band, c.fit.model, moved)
                 + ("" if term is None or term.device else "; an instrument or session effect"),
+                c.evidence_method,
+                c.evidence_note,
             )
         )
+        if c.evidence_method != "laplace":
+            warn.append(
+                f"{c.physics}: its delta_log_evidence is not the Laplace screen's (which failed) but "
+                f"the fallback '{c.evidence_method}' ({c.evidence_note})"
+            )
         say(findings[-1].explanation)
         fit, lz = c.fit, c.log_z
     unexplained = []
