@@ -21,6 +21,7 @@ from ..errors import FitError
 from ..estimation.checks import locate_resonance
 from ..estimation.fitting import fit_admittance
 from ..estimation.results import FitResult
+from ..evidence.scale import verbal
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from .candidates import candidate_physics
@@ -323,6 +324,17 @@ def diagnose(
                             f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted")
             if ranked and ranked[0].accepted:
                 accepted = (band, ranked[0])
+                # rivals the evidence cannot tell from the winner (|ln B| < 1, Kass & Raftery's
+                # "not worth more than a bare mention"): named, not hidden
+                for r in ranked[1:]:
+                    lb = ranked[0].delta_log_z - r.delta_log_z
+                    if r.accepted and r.physics != ranked[0].physics and verbal(lb) == "inconclusive":
+                        warn.append(
+                            f"{ranked[0].physics} ({ranked[0].fit.model.label}) and {r.physics} "
+                            f"({r.fit.model.label}) explain the band {band.lo:.4g}-{band.hi:.4g} rad/s "
+                            f"about equally: ln B = {lb:.2f} nats (inconclusive); the data do not tell "
+                            "them apart, the first is reported"
+                        )
                 break
             unexplained_bands.append(band)
         if accepted is None:
