@@ -221,8 +221,7 @@ def subspace_laplace(log_density_z, names, z_mode, warp: Warp, seed: int = 0) ->
 
     def neg_hessian(L):
         # −∇² log q in the coordinates whitened by L; the whitening shrunk (tenfold, up to 10⁻⁴) while
-        # the difference points leave the prior's support (a scale far wider than the posterior
-        # along a ridge): the shrunk directions then count as flat and are integrated instead
+        # a difference point gives a non-finite log density (a model evaluation out of range)
         for shrink in (1.0, 1e-1, 1e-2, 1e-3, 1e-4):
             Ls = L * shrink
             x_of = _affine(xi, Ls)
