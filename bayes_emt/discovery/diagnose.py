@@ -271,9 +271,10 @@ def diagnose(
     if not math.isfinite(lz):
         lz = max_log_likelihood(meas, fit)
         warn.append(
-            f"the Laplace evidence of the starting model {fit.model.label} failed (a model far from the "
-            "data); its maximum likelihood bounds it from above, so the first delta_log_evidence is a "
-            "lower bound"
+            f"the Laplace evidence of the starting model {fit.model.label} and its fallback failed (a "
+            "model far from the data); its maximum log-likelihood over the noise scales at the "
+            "least-squares values stands in for it, so the first delta_log_evidence is approximate "
+            "(not a bound)"
         )
     baseline = fit
     resonance = locate_resonance(meas)
