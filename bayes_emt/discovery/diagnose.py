@@ -21,9 +21,11 @@ from ..errors import FitError
 from ..estimation.checks import locate_resonance
 from ..estimation.fitting import fit_admittance
 from ..estimation.results import FitResult
+from ..evidence.scale import verbal
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from .candidates import candidate_physics
+from .evidence import evidence
 from .locate import ALPHA, Band, Location, locate_mismatch
 from .name import Candidate, log_evidence, max_log_likelihood, rank_candidates
 from .shape import describe_shape, residual_shape
@@ -40,7 +42,9 @@ MAX_BANDS_PER_ROUND = 3
 class Finding:
     """One accepted explanation: the physics id, the band it explains, ``Δ log Z`` [nats], the band's
     χ² before and after, whether the data determine it, the parameters it adds and those that moved,
-    the model after it, and a plain-words verdict."""
+    the model after it, a plain-words verdict, and how its evidence was obtained
+    (``evidence_method``: ``"laplace"``, or the fallback ``"laplace_subspace"`` of :mod:`.evidence`,
+    which a warning then names)."""
 
     physics: str
     band: Band
@@ -53,6 +57,8 @@ class Finding:
     parameters: dict
     model_spec: str
     explanation: str
+    evidence_method: str = "laplace"
+    evidence_note: str = ""
 
     def to_json_dict(self) -> dict:
         return {
@@ -255,13 +261,20 @@ def diagnose(
         )
     else:
         fit = fit_admittance(meas, model)
-        lz = log_evidence(meas, fit)
+        ev0 = evidence(meas, fit)
+        lz = ev0.log_z
+        if ev0.fallback and math.isfinite(lz):
+            warn.append(
+                f"the Laplace evidence of the starting model {fit.model.label} failed; its log Z is "
+                f"Laplace on the identifiable subspace with the flat directions integrated ({ev0.note})"
+            )
     if not math.isfinite(lz):
         lz = max_log_likelihood(meas, fit)
         warn.append(
-            f"the Laplace evidence of the starting model {fit.model.label} failed (a model far from the "
-            "data); its maximum likelihood bounds it from above, so the first delta_log_evidence is a "
-            "lower bound"
+            f"the Laplace evidence of the starting model {fit.model.label} and its fallback failed (a "
+            "model far from the data); its maximum log-likelihood over the noise scales at the "
+            "least-squares values stands in for it, so the first delta_log_evidence is approximate "
+            "(not a bound)"
         )
     baseline = fit
     resonance = locate_resonance(meas)
@@ -300,6 +313,8 @@ def diagnose(
                             "identifiable": c.identifiable,
                             "accepted": c.accepted,
                             "implausible": c.implausible,
+                            "evidence_method": c.evidence_method,
+                            "evidence_note": c.evidence_note,
                         }
                         for c in ranked
                     ],
@@ -310,6 +325,17 @@ def diagnose(
                             f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted")
             if ranked and ranked[0].accepted:
                 accepted = (band, ranked[0])
+                # rivals the evidence cannot tell from the winner (|ln B| < 1, Kass & Raftery's
+                # "not worth more than a bare mention"): named, not hidden
+                for r in ranked[1:]:
+                    lb = ranked[0].delta_log_z - r.delta_log_z
+                    if r.accepted and r.physics != ranked[0].physics and verbal(lb) == "inconclusive":
+                        warn.append(
+                            f"{ranked[0].physics} ({ranked[0].fit.model.label}) and {r.physics} "
+                            f"({r.fit.model.label}) explain the band {band.lo:.4g}-{band.hi:.4g} rad/s "
+                            f"about equally: ln B = {lb:.2f} nats (inconclusive); the data do not tell "
+                            "them apart, the first is reported"
+                        )
                 break
             unexplained_bands.append(band)
         if accepted is None:
@@ -340,8 +366,15 @@ def diagnose(
                 c.fit.model.label,
                 _explain(c, band, c.fit.model, moved)
                 + ("" if term is None or term.device else "; an instrument or session effect"),
+                c.evidence_method,
+                c.evidence_note,
             )
         )
+        if c.evidence_method != "laplace":
+            warn.append(
+                f"{c.physics}: its delta_log_evidence is not the Laplace screen's (which failed) but "
+                f"the fallback '{c.evidence_method}' ({c.evidence_note})"
+            )
         say(findings[-1].explanation)
         fit, lz = c.fit, c.log_z
     unexplained = []

@@ -12,7 +12,13 @@ For a located band (:mod:`.locate`) each candidate physics (:mod:`.candidates`) 
 
 Each fit's log evidence is the Laplace screen of :mod:`bayes_emt.evidence` (the same
 approximation its comparison uses from a least-squares fit, with the noise scales as parameters),
-so ``Δ log Z`` is against the current model on the same data and priors. The band's χ² is the sum
+so ``Δ log Z`` is against the current model on the same data and priors. When the screen fails (a
+flat direction: a parameter not determined against another, a noise scale pressed against its
+bound, a step's frequency between two measured points), :mod:`.evidence` falls back to Laplace on
+the identifiable subspace with the flat directions integrated numerically; the candidate records
+which method gave its ``Δ log Z`` (:attr:`Candidate.evidence_method`), and a candidate whose new
+parameters lie along a flat direction is not identifiable (the fit improves, the data do not
+determine the value). The band's χ² is the sum
 of squared normalised residuals (both parts) in the band with the noise of the location
 (:attr:`~.locate.Location.sigma_rel`), before and after.
 
@@ -29,7 +35,6 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,12 +44,12 @@ from ..errors import FitError
 from ..estimation.augment import augmentation_starts
 from ..estimation.fitting import fit_admittance
 from ..estimation.results import FitResult
-from ..evidence.compare import _laplace  # the evidence package's Laplace screen from a fit
 from ..evidence.scale import verbal
 from ..inference.likelihood import Likelihood
 from ..measurement import Measurement
 from ..models import Model, make_term
 from .candidates import escalations
+from .evidence import Evidence, evidence
 from .locate import Band, scan_statistics
 
 __all__ = [
@@ -62,8 +67,9 @@ __all__ = [
 MIN_DELTA_LOG_Z = 5.0
 MIN_WHITENING = 0.3
 MAX_REL_SE = 0.5
-#: augmentation starts polished per candidate term
-STARTS_POLISHED = 2
+#: augmentation starts polished per candidate term (three: a step's frequency found by the third of
+#: its starts was lost with two, and a polish costs a second)
+STARTS_POLISHED = 3
 
 
 @dataclass(frozen=True)
@@ -71,7 +77,9 @@ class Candidate:
     """One tried explanation of a band.
 
     ``physics`` the SPEC §7 id; ``fit`` its least-squares fit; ``log_z`` its Laplace log evidence
-    [nats]; ``delta_log_z`` against the current model; ``chi2_band_before``/``after`` the band's
+    [nats] (``evidence_method`` ``"laplace"``, or ``"laplace_subspace"``: the fallback of
+    :mod:`.evidence`, ``evidence_note`` why and what it did); ``delta_log_z`` against the current
+    model; ``chi2_band_before``/``after`` the band's
     χ²; ``identifiable`` and ``identifiability`` (why); ``n_band`` the band's residual count
     (its χ² expectation when white); ``added`` the parameters the candidate
     adds ``{name: (value, stderr)}`` [SI]."""
@@ -89,6 +97,8 @@ class Candidate:
     scan_after: float = 0.0
     added: dict = field(default_factory=dict)
     implausible: str | None = None
+    evidence_method: str = "laplace"
+    evidence_note: str = ""
 
     @property
     def whitening(self) -> float:
@@ -112,24 +122,20 @@ class Candidate:
 
 
 def log_evidence(meas: Measurement, fit: FitResult) -> float:
-    """Laplace log evidence [nats] of ``fit.model`` on ``meas`` (Gaussian likelihood with sampled
-    noise scales), from the least-squares fit; ``nan`` when the screen fails."""
-    lik = Likelihood(fit.model, meas)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            rec, _ = _laplace(lik, fit)
-    except (ValueError, np.linalg.LinAlgError, FloatingPointError):
-        return float("nan")
-    v = rec.get("log_evidence")
-    return float(v) if v is not None else float("nan")
+    """Log evidence [nats] of ``fit.model`` on ``meas`` (Gaussian likelihood with sampled noise
+    scales) from the least-squares fit: the Laplace screen, its fallback when the screen fails
+    (:func:`.evidence.evidence`); ``nan`` when neither gives a number."""
+    return evidence(meas, fit).log_z
 
 
 def max_log_likelihood(meas: Measurement, fit: FitResult) -> float:
     """``max log p(Y | θ, σ)`` [nats] at the least-squares ``θ`` over the noise scales
-    (``σ_rel``, ``σ_abs``): an upper bound of ``log Z`` (``Z = ∫ L π ≤ max L``), used in place of the
-    current model's evidence when its Laplace screen fails (a model far from the data), so that
-    ``Δ log Z`` is then a lower bound."""
+    (``σ_rel``, ``σ_abs``), used in place of the current model's evidence when both its Laplace
+    screen and the fallback of :mod:`.evidence` fail. It is *not* an upper bound of ``log Z``:
+    the likelihood is maximised over the noise scales only, at ``θ`` fitted by least squares, and
+    where the absolute noise floor matters the posterior's ``θ`` differs (on II fitted to data with
+    leads, the fallback's log Z, an importance-sampling estimate that overstates by ``a`` nats with
+    probability at most ``e^-a``, lies 1189 nats above it); ``Δ log Z`` is then approximate."""
     lik = Likelihood(fit.model, meas)
     rel = float(
         np.sqrt(
@@ -181,10 +187,20 @@ def band_scan(meas: Measurement, model: Model, theta, band: Band, sigma_rel: flo
     return best if math.isfinite(best) else float("inf")
 
 
-def _identifiable(fit: FitResult, new_names: list[str], physics: str) -> tuple[bool, str, dict]:
+def _identifiable(fit: FitResult, new_names: list[str], physics: str,
+                  ev: Evidence | None = None) -> tuple[bool, str, dict]:
     model = fit.model
     se = fit.stderr
     added = {n: (float(v), float(se[n])) for n, v in model.as_dict(fit.theta).items() if n in new_names}
+    flat = sorted({n for f in (ev.flat if ev is not None else ()) for n in f if n in new_names})
+    if flat:
+        return (
+            False,
+            f"the posterior is flat along {', '.join(flat)}: the data do not determine "
+            + ("it" if len(flat) == 1 else "them")
+            + " (its evidence integrates that direction numerically)",
+            added,
+        )
     if fit.cov_z is None:
         return (
             False,
@@ -203,8 +219,8 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str) -> tuple[b
 
 def fit_candidate(
     meas: Measurement, current: FitResult, physics: str, band: Band
-) -> list[tuple[FitResult, float]]:
-    """``(fit, log Z)`` of ``physics`` added to ``current.model`` (module docstring); for
+) -> list[tuple[FitResult, Evidence]]:
+    """``(fit, evidence)`` of ``physics`` added to ``current.model`` (module docstring); for
     ``eddy_current`` one per escalated coil model. Fits that fail are left out."""
     out = []
     if physics == "eddy_current":
@@ -215,8 +231,9 @@ def fit_candidate(
                 fit = fit_admittance(meas, model)
             except (FitError, ValueError):
                 continue
-            lz = log_evidence(meas, fit)
-            out.append((fit, lz))
+            ev = evidence(meas, fit)
+            lz = ev.log_z
+            out.append((fit, ev))
             if model.rings is not None:  # the ring ladder
                 if best > -math.inf and not lz > best:
                     break
@@ -237,7 +254,7 @@ def fit_candidate(
     if not ok:
         return []
     best = min(ok, key=lambda f: f.chi2)
-    return [(best, log_evidence(meas, best))]
+    return [(best, evidence(meas, best))]
 
 
 def rank_candidates(
@@ -262,14 +279,17 @@ def rank_candidates(
                 progress(f"time budget reached: {physics} and later candidates not tried")
             break
         t0 = time.perf_counter()
-        for fit, lz in fit_candidate(meas, current, physics, band):
+        for fit, ev in fit_candidate(meas, current, physics, band):
+            lz = ev.log_z
             if progress:
-                progress(f"  {physics}: {fit.model.label} log Z {lz:.1f} ({time.perf_counter() - t0:.0f} s)")
+                how = "" if not ev.fallback else f" [{ev.method}: {ev.note}]"
+                dt = time.perf_counter() - t0
+                progress(f"  {physics}: {fit.model.label} log Z {lz:.1f}{how} ({dt:.0f} s)")
             if not math.isfinite(lz):
                 continue
             after = band_chi2(meas, fit.model, fit.theta, band, sigma_rel)
             new_names = [n for n in fit.model.names if n not in current.model.names]
-            ident, why, added = _identifiable(fit, new_names, physics)
+            ident, why, added = _identifiable(fit, new_names, physics, ev)
             values = fit.model.as_dict(fit.theta)
             bad = next(
                 (
@@ -294,6 +314,8 @@ def rank_candidates(
                     band_scan(meas, fit.model, fit.theta, band, sigma_rel),
                     added,
                     bad,
+                    ev.method,
+                    ev.note,
                 )
             )
     # eddy_current: keep only its best rung (the ring count by evidence)
