@@ -108,3 +108,24 @@ def test_diagnose_command_writes_json_and_figures(tmp_path, capsys):
     assert set(rec) == TOP and rec["final_model"] == "UD+winding_capacitance"
     assert "finding 1: winding_capacitance [device]" in text and "Hz" in text and "nats" in text
     assert (plots / "residuals.png").stat().st_size > 0 and (plots / "bode.png").stat().st_size > 0
+
+
+def test_a_final_model_that_moves_r0_by_more_than_five_percent_is_warned_about():
+    # On the real LS10-44 run2 recordings the diagnosis moved R0 by -17 % (scripts/results/
+    # discovery_realdata/table.md); a negative-resistance shunt cancels most of R0, so a move that
+    # size must be said. Stand-in fits: only .parameters and .model.label are read.
+    from types import SimpleNamespace
+
+    from bayes_emt.discovery.diagnose import R0_MOVE_WARN, r0_move_warning
+
+    def fit(r0, label):
+        return SimpleNamespace(parameters={"R0": r0, "zeta": 0.1, "omega0": 300.0, "phi": 5.0},
+                               model=SimpleNamespace(label=label))
+
+    assert R0_MOVE_WARN == 0.05
+    w = r0_move_warning(fit(8.608, "UD"), fit(7.153, "NL(3)+second_resonance"))
+    assert w is not None and "-16.9 %" in w and "8.608 -> 7.153 ohm" in w and "--priors" in w
+    assert "UD" in w and "NL(3)+second_resonance" in w
+    assert r0_move_warning(fit(8.608, "UD"), fit(8.608 * 1.049, "NL(2)")) is None
+    assert r0_move_warning(fit(8.608, "UD"), fit(8.608 * 1.051, "NL(2)")) is not None
+    assert r0_move_warning(fit(8.608, "UD"), fit(8.608, "UD")) is None

@@ -36,6 +36,10 @@ __all__ = ["Finding", "Diagnosis", "diagnose", "preferred_base_model", "BASELINE
 BASELINE_CANDIDATES: tuple[str, ...] = ("I", "II", "III", "UD")
 #: bands examined per round (strongest first)
 MAX_BANDS_PER_ROUND = 3
+# a final model whose R0 differs from the baseline's by more than this (relative) gets a warning: the
+# paper's models put R0 4-9 % above a woofer's DC resistance when they absorb missing physics, and a
+# negative-resistance shunt cancels most of R0, so a move of this size changes its stability margin
+R0_MOVE_WARN = 0.05
 
 
 @dataclass(frozen=True)
@@ -178,6 +182,19 @@ def moved_parameters(before: FitResult, after: FitResult) -> dict:
         for k in a
         if k in b
     }
+
+
+def r0_move_warning(before: FitResult, after: FitResult, limit: float = R0_MOVE_WARN) -> str | None:
+    """A warning when R0 moves by more than ``limit`` (relative) from ``before`` to ``after``: the
+    data then do not pin the DC resistance apart from the added physics. ``None`` otherwise."""
+    d = moved_parameters(before, after).get("R0")
+    if d is None or d["relative_change"] is None or abs(d["relative_change"]) <= limit:
+        return None
+    return (f"R0 moved {100 * d['relative_change']:+.1f} % ({d['before']:.4g} -> {d['after']:.4g} ohm) from "
+            f"the baseline {before.model.label} to the final {after.model.label}: these data do not pin the "
+            "DC resistance apart from the added physics; measure it with an ohmmeter and give it as an R0 "
+            "prior (`fit`/`sample --priors`) before trusting R0-sensitive results (a negative-resistance "
+            "shunt cancels most of R0)")
 
 
 def _fmt(v: float, unit: str) -> str:
@@ -391,6 +408,9 @@ def diagnose(
         )
     if len(findings) == max_rounds and loc is not None and loc.bands:
         warn.append(f"stopped after {max_rounds} findings with mismatch left")
+    r0_warning = r0_move_warning(baseline, fit)
+    if r0_warning:
+        warn.append(r0_warning)
     if baseline.info.get("resonance_mismatch") or fit.info.get("resonance_mismatch"):
         warn.append("a fit put the resonance away from the impedance peak the data shows")
     for f in findings:
