@@ -242,8 +242,10 @@ def physics_checks(r) -> dict:
     return out
 
 
-def run_nulls(out: Path, n: int) -> dict:
-    path = out / "null_seeds.json"
+def _null_runs(path: Path, n: int, record) -> dict:
+    """Resume ``path`` (``{"runs": [...]}``) until it holds ``n`` runs, written after each: the null
+    cases in turn, simulated with seeds 1000, 1001, ...; ``record(case, meas, i)`` gives a run's
+    entries (its case, seed and seconds are added here)."""
     done = json.loads(path.read_text()) if path.exists() else {"runs": []}
     base = [c for c in cases() if c["name"].startswith("null_")]
     while len(done["runs"]) < n:
@@ -251,18 +253,19 @@ def run_nulls(out: Path, n: int) -> dict:
         c = base[i % len(base)]
         _, _, meas = simulate_case(c, seed=1000 + i)
         t = time.perf_counter()
-        d = diagnose(meas, parse_model_spec(c["base"]), seed=i)
-        done["runs"].append(
-            {
-                "case": c["name"],
-                "seed": 1000 + i,
-                "findings": [f.physics for f in d.findings],
-                "bands": len(d.final_location.bands) if d.final_location else 0,
-                "seconds": time.perf_counter() - t,
-            }
-        )
+        run = {"case": c["name"], "seed": 1000 + i, **record(c, meas, i)}
+        done["runs"].append({**run, "seconds": time.perf_counter() - t})
         atomic_write_text(path, json.dumps(done, indent=1))
     return done
+
+
+def run_nulls(out: Path, n: int) -> dict:
+    def record(c, meas, i):
+        d = diagnose(meas, parse_model_spec(c["base"]), seed=i)
+        return {"findings": [f.physics for f in d.findings],
+                "bands": len(d.final_location.bands) if d.final_location else 0}
+
+    return _null_runs(out / "null_seeds.json", n, record)
 
 
 def run_forced_band_nulls(out: Path, n: int) -> dict:
@@ -278,13 +281,8 @@ def run_forced_band_nulls(out: Path, n: int) -> dict:
     from bayes_emt.estimation.fitting import fit_admittance
 
     path = out / "forced_band_nulls.json"
-    done = json.loads(path.read_text()) if path.exists() else {"runs": []}
-    base = [c for c in cases() if c["name"].startswith("null_")]
-    while len(done["runs"]) < n:
-        i = len(done["runs"])
-        c = base[i % len(base)]
-        _, _, meas = simulate_case(c, seed=1000 + i)
-        t = time.perf_counter()
+
+    def record(c, meas, i):
         fit = fit_admittance(meas, parse_model_spec(c["base"]))
         ev = evidence(meas, fit)
         om = meas.omega
@@ -292,22 +290,18 @@ def run_forced_band_nulls(out: Path, n: int) -> dict:
         band = Band(float(om[0]), float(om[-1]), 0, om.size - 1, ("real", "imag"), 0.0, 0.0, mid)
         ids = candidate_physics(band, fit.model, None)
         ranked = rank_candidates(meas, fit, ev.log_z, band, c["noise"], ids)
-        done["runs"].append(
-            {
-                "case": c["name"],
-                "seed": 1000 + i,
-                "base_evidence_method": ev.method,
-                "candidates": [
-                    {"physics": r.physics, "model": r.fit.model.label, "delta_log_evidence": r.delta_log_z,
-                     "whitening": r.whitening, "accepted": r.accepted, "evidence_method": r.evidence_method}
-                    for r in ranked
-                ],
-                "significant": [r.physics for r in ranked if r.delta_log_z >= MIN_DELTA_LOG_Z],
-                "accepted": [r.physics for r in ranked if r.accepted],
-                "seconds": time.perf_counter() - t,
-            }
-        )
-        atomic_write_text(path, json.dumps(done, indent=1))
+        return {
+            "base_evidence_method": ev.method,
+            "candidates": [
+                {"physics": r.physics, "model": r.fit.model.label, "delta_log_evidence": r.delta_log_z,
+                 "whitening": r.whitening, "accepted": r.accepted, "evidence_method": r.evidence_method}
+                for r in ranked
+            ],
+            "significant": [r.physics for r in ranked if r.delta_log_z >= MIN_DELTA_LOG_Z],
+            "accepted": [r.physics for r in ranked if r.accepted],
+        }
+
+    done = _null_runs(path, n, record)
     runs = done["runs"]
     cands = [x for r in runs for x in r["candidates"]]
     done["summary"] = {
