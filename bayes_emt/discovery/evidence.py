@@ -58,10 +58,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..evidence.compare import fit_start
 from ..evidence.laplace import _affine, hessian_fd, laplace_evidence
 from ..evidence.warp import Warp
 from ..inference.likelihood import Likelihood
-from ..inference.sampling import noise_start
 from ..inference.start import posterior_mode
 from ..measurement import Measurement
 
@@ -291,22 +291,12 @@ def subspace_laplace(log_density_z, names, z_mode, warp: Warp, seed: int = 0) ->
 def evidence(meas: Measurement, fit) -> Evidence:
     """The Laplace log evidence of ``fit.model`` on ``meas`` (Gaussian likelihood with sampled noise
     scales), from the least-squares fit, set up as the evidence package's screen from a fit
-    (:func:`bayes_emt.evidence.compare._laplace`: the fit's covariance to whiten, the noise
+    (:func:`bayes_emt.evidence.compare.fit_start`: the fit's covariance to whiten, the noise
     coordinates warped); when the screen fails, :func:`subspace_laplace` at the screen's mode
     (module docstring), flagged by :attr:`Evidence.method`."""
     lik = Likelihood(fit.model, meas)
     k = lik.model.ndim
-    centre, spread = noise_start(fit.rms_rel_residual, float(np.min(np.abs(meas.Y))))
-    z0 = np.r_[fit.z, centre, [math.log(10.0)] * lik.sample_nu]
-    cov_fit = (
-        fit.cov_z
-        if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z))
-        else np.diag((1e-3 * np.maximum(np.abs(fit.z), 1.0)) ** 2)
-    )
-    scale = np.zeros((lik.ndim, lik.ndim))
-    scale[:k, :k] = cov_fit
-    scale[k:, k:] = np.diag(np.square(list(spread) + [0.3] * lik.sample_nu))
-    warp = Warp.of(lik.params, mask=np.arange(lik.ndim) >= k)
+    z0, scale, warp = fit_start(lik, fit)
     mode = z0
     try:
         with warnings.catch_warnings():
@@ -328,7 +318,7 @@ def evidence(meas: Measurement, fit) -> Evidence:
             with np.errstate(all="ignore"):
                 resid = fit.model.admittance(meas.omega, fit.theta) - meas.Y
                 abs_rms = float(np.sqrt(np.mean(np.abs(resid) ** 2) / 2))
-            z_abs[k : k + 2] = [centre[0] - math.log(1e3), math.log(max(abs_rms, 1e-300))]
+            z_abs[k : k + 2] = [z0[k] - math.log(1e3), math.log(max(abs_rms, 1e-300))]
             lo, hi = lik.params.bounds_z()
             z_abs = np.clip(z_abs, np.asarray(lo) + 1e-9, np.asarray(hi) - 1e-9)
             starts = np.array([mode, z0, z_abs])

@@ -106,6 +106,24 @@ def _stem(model: Model) -> str:
     return "".join(c if c.isalnum() else "_" for c in model.label)
 
 
+def fit_start(lik: Likelihood, fit) -> tuple[np.ndarray, np.ndarray, Warp]:
+    """The Laplace screen's start from a least-squares ``fit``: ``(z0, scale, warp)`` in ``lik``'s
+    sampling space. ``z0`` is the fit's values with the noise scales started from its residual
+    (:func:`~bayes_emt.inference.sampling.noise_start`); ``scale`` whitens by the fit's covariance (a
+    0.1 % guess per coordinate when it has none) and the noise start's spread; ``warp`` logit-maps
+    the noise coordinates, whose posterior may press against a prior bound, which a fit cannot
+    tell."""
+    k = lik.model.ndim
+    centre, spread = noise_start(fit.rms_rel_residual, float(np.min(np.abs(lik.meas.Y))))
+    z0 = np.r_[fit.z, centre, [math.log(10.0)] * lik.sample_nu]
+    cov_fit = fit.cov_z if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)) else \
+        np.diag((1e-3 * np.maximum(np.abs(fit.z), 1.0)) ** 2)
+    scale = np.zeros((lik.ndim, lik.ndim))
+    scale[:k, :k] = cov_fit
+    scale[k:, k:] = np.diag(np.square(list(spread) + [0.3] * lik.sample_nu))
+    return z0, scale, Warp.of(lik.params, mask=np.arange(lik.ndim) >= k)
+
+
 def _laplace(lik: Likelihood, fit, post=None) -> tuple[dict, int]:
     """Laplace from the posterior draws when there are some (start: the best draw, scale and warp
     from the draws), else from the least-squares fit (noise coordinates warped: their posterior
@@ -116,15 +134,7 @@ def _laplace(lik: Likelihood, fit, post=None) -> tuple[dict, int]:
         scale = np.cov(zs, rowvar=False)
         warp = Warp.near_bounds(lik.params, zs.min(axis=0), zs.max(axis=0), zs.std(axis=0), n_sd=3.0)
     else:
-        k = lik.model.ndim
-        centre, spread = noise_start(fit.rms_rel_residual, float(np.min(np.abs(lik.meas.Y))))
-        z0 = np.r_[fit.z, centre, [math.log(10.0)] * lik.sample_nu]
-        cov_fit = fit.cov_z if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)) else \
-            np.diag((1e-3 * np.maximum(np.abs(fit.z), 1.0)) ** 2)
-        scale = np.zeros((lik.ndim, lik.ndim))
-        scale[:k, :k] = cov_fit
-        scale[k:, k:] = np.diag(np.square(list(spread) + [0.3] * lik.sample_nu))
-        warp = Warp.of(lik.params, mask=np.arange(lik.ndim) >= k)
+        z0, scale, warp = fit_start(lik, fit)
     res = laplace_evidence(lik.log_posterior_z, lik.params, z0, scale, warp=warp)
     return res.to_json_dict(), res.n_calls
 
