@@ -340,3 +340,29 @@ def test_a_chain_whose_walkers_never_move_is_not_converged_and_not_nan():
     assert v["stuck"] and not v["converged"] and np.isfinite(v["tau_max"]) and v["tau_max"] >= 600
     assert "never moved" in sampling_module._verdict_message(v, 600, SamplerSettings())
     json.dumps(v, allow_nan=False)
+
+
+def test_walkers_start_inside_the_prior_when_the_fit_cannot_bound_a_parameter():
+    # An over-sized NL fit (NL(3) or NL(5) on NL(2) data) gives its spare rings least-squares
+    # standard errors of 1e3 e-folds. Drawn as they were, half the walkers sat clipped on each bound
+    # of those coordinates, emcee refused the start ("large condition number": `compare --rings 1-7`
+    # crashed on NL(2) data), and the covariance's condition number spoiled the draws of the
+    # well-determined coordinates (zeta's walkers spread 2.8 e-folds for a 0.002 standard error).
+    from bayes_emt.inference.start import start_ball
+
+    model = build_model("NL", rings=3)
+    theta = {**PAPER_TABLES["NL"]}
+    theta = [theta.get(n, 1e-7 if n.startswith("P") else 1e-4) for n in model.names]
+    meas = simulate(model, theta, np.geomspace(1e1, 1e5, 200), noise=0.002, seed=3)
+    lik = Likelihood(model, meas)
+    z0 = model.params.to_z(np.asarray(theta, float))
+    sd = np.where([n.startswith(("P", "R")) and n != "R0" for n in model.names], 1e3, 2e-3)
+    walkers = start_ball(lik, z0, np.diag(sd**2), [np.log(0.002), np.log(1e-9)], [0.05, 1.0], 4 * lik.ndim,
+                         np.random.default_rng(0))
+    assert np.linalg.cond(walkers) < 1e8  # emcee's own check of a start
+    lo, hi = (np.asarray(b, float) for b in lik.params.bounds_z())
+    span = hi - lo
+    on_bound = np.mean((walkers - lo < 1e-6 * span) | (hi - walkers < 1e-6 * span), axis=0)
+    assert np.max(on_bound) < 0.2, dict(zip(lik.params.names, on_bound, strict=True))
+    i = model.names.index("zeta")
+    assert np.std(walkers[:, i]) == pytest.approx(2e-3, rel=0.3)  # 52 walkers: sd within 30 %

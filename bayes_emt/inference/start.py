@@ -164,12 +164,23 @@ def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Ge
     ``target.params``, each with a finite posterior; the ball shrinks if too many fall outside.
     Correlations are shrunk to at most 0.99 in magnitude: a parameter the data do not separate
     from another (a lead resistance beside R0) makes the fit's covariance nearly singular, and
-    walkers drawn from it would be linearly dependent (emcee refuses such a start)."""
+    walkers drawn from it would be linearly dependent (emcee refuses such a start). A standard
+    deviation wider than a quarter of the coordinate's prior range is narrowed to it, keeping the
+    correlations: a parameter the data do not determine (a spare ring of an over-sized NL fit) can
+    have a least-squares standard error of 1e3 e-folds, which says only "anywhere in the prior";
+    drawn as it is, half the walkers land clipped on each bound (several columns then repeat one
+    pattern, and emcee refuses the start), and the covariance's 1e20 condition number spoils the
+    draws of the well-determined coordinates."""
     k = len(z0)
+    lo, hi = (np.asarray(b, float) for b in target.params.bounds_z())
     cov = 0.5 * (cov + cov.T)
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    cap = np.where(np.isfinite(hi[:k] - lo[:k]), (hi[:k] - lo[:k]) / 4.0, np.inf)
+    if np.any(sd > cap):
+        d = np.where(sd > cap, cap / np.where(sd > 0, sd, 1.0), 1.0)
+        cov = cov * np.outer(d, d)
     cov = 0.99 * cov + 0.01 * np.diag(np.diag(cov))
     cov = cov + np.eye(k) * 1e-12 * np.max(np.abs(np.diag(cov)))
-    lo, hi = target.params.bounds_z()
     out = np.empty((nwalkers, target.ndim))
     filled = 0
     for _ in range(50):
