@@ -62,7 +62,7 @@ from ..evidence.compare import fit_start
 from ..evidence.laplace import _affine, hessian_fd, laplace_evidence
 from ..evidence.warp import Warp
 from ..inference.likelihood import Likelihood
-from ..inference.start import posterior_mode
+from ..inference.start import floor_noise_start, posterior_mode
 from ..measurement import Measurement
 
 __all__ = ["Evidence", "evidence", "subspace_laplace", "slice_log_integral", "TAU"]
@@ -315,10 +315,7 @@ def evidence(meas: Measurement, fit) -> Evidence:
             # the mode again, from both noise regimes (the noise scales' posterior can have two
             # modes: relative noise dominating, or the absolute floor), as the sampler's start does
             z_abs = z0.copy()
-            with np.errstate(all="ignore"):
-                resid = fit.model.admittance(meas.omega, fit.theta) - meas.Y
-                abs_rms = float(np.sqrt(np.mean(np.abs(resid) ** 2) / 2))
-            z_abs[k : k + 2] = [z0[k] - math.log(1e3), math.log(max(abs_rms, 1e-300))]
+            z_abs[k : k + 2] = floor_noise_start(lik, fit.theta, z0[k])[0]
             lo, hi = lik.params.bounds_z()
             z_abs = np.clip(z_abs, np.asarray(lo) + 1e-9, np.asarray(hi) - 1e-9)
             starts = np.array([mode, z0, z_abs])

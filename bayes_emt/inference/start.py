@@ -19,7 +19,7 @@ from scipy import optimize
 from ..errors import FitError
 from ..estimation.results import FitResult
 
-__all__ = ["initial_walkers", "noise_start", "start_ball", "posterior_mode"]
+__all__ = ["initial_walkers", "noise_start", "floor_noise_start", "start_ball", "posterior_mode"]
 
 _FD_STEP = 1e-5  # central-difference step in whitened coordinates
 
@@ -81,6 +81,16 @@ def noise_start(rms_rel: float, min_abs_Y: float) -> tuple[list[float], list[flo
     return [math.log(sig0), math.log(1e-3 * sig0 * min_abs_Y)], [0.05, 1.0]
 
 
+def floor_noise_start(lik, theta, z_rel: float) -> tuple[list[float], float]:
+    """The noise start with the absolute floor dominating, ``([log sigma_rel, log sigma_abs], rms_abs)``:
+    ``sigma_abs`` at the rms absolute residual ``rms_abs`` [S] of the model at ``theta`` (per part),
+    ``sigma_rel`` a thousand times below ``exp(z_rel)``, the relative-noise start's."""
+    with np.errstate(all="ignore"):
+        r = lik.model_admittance(theta) - lik.meas.Y
+    rms_abs = float(np.sqrt(np.mean(r.real**2 + r.imag**2) / 2))
+    return [z_rel - math.log(1e3), math.log(max(rms_abs, 1e-300))], rms_abs
+
+
 def initial_walkers(lik, fit: FitResult, nwalkers: int, rng: np.random.Generator) -> np.ndarray:
     """Walkers in sampling space around the posterior mode found from the least-squares fit.
 
@@ -99,11 +109,8 @@ def initial_walkers(lik, fit: FitResult, nwalkers: int, rng: np.random.Generator
         cov = np.diag((1e-3 * np.maximum(np.abs(z0), 1.0)) ** 2)
     min_abs = float(np.min(np.abs(lik.meas.Y)))
     rel, spread = noise_start(fit.rms_rel_residual, min_abs)
-    with np.errstate(all="ignore"):
-        r = lik.model_admittance(fit.theta) - lik.meas.Y
-    rms_abs = float(np.sqrt(np.mean(r.real**2 + r.imag**2) / 2))
+    floor, rms_abs = floor_noise_start(lik, fit.theta, rel[0])
     _refuse_noise_priors_excluding(lik, rel[0], rms_abs)
-    floor = [rel[0] - math.log(1e3), math.log(max(rms_abs, 1e-300))]
     extra = [math.log(10.0)] if lik.sample_nu else []
     starts = np.array([np.r_[z0, rel, extra], np.r_[z0, floor, extra]])
     lo, hi = lik.params.bounds_z()
