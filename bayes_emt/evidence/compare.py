@@ -12,6 +12,10 @@ Per model spec (resolved by :func:`bayes_emt.api.as_model`, never by name here):
 5. nested sampling from the prior (:mod:`.nested`, checkpointed; ``nested_repeats`` seeds);
 6. PSIS-LOO (:mod:`.loo`) and the evidence with every prior width doubled (:mod:`.sensitivity`).
 
+Every sampled estimate is checked against the evidence lower bound of the emcee draws
+(:mod:`.bound`, Jensen's inequality, valid whether or not the chain converged): one more than
+five standard errors below it is wrong, flagged and left out of the combined log Z (a nested
+run whose live points never reached the posterior: NL(5) on NL(2) data, 13000 nats low).
 A model whose nested and bridge estimates differ by more than 1 nat is flagged in its warnings
 (and so is a Laplace screen that is off by more than 1 nat: a non-Gaussian posterior), as is a
 posterior that missed its convergence rule, and a nested run that reached a likelihood more
@@ -46,6 +50,7 @@ from ..inference.likelihood import Likelihood, measurement_sha256
 from ..inference.sampling import SamplerSettings, noise_start, sample_likelihood
 from ..measurement import Measurement
 from ..models import Model
+from .bound import below_bound, evidence_lower_bound
 from .bridge import bridge_evidence
 from .laplace import laplace_evidence
 from .loo import psis_loo
@@ -236,6 +241,12 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
         if post is not None:
             notes += _missed_mode(runs, post, lik)
 
+    bound = {}
+    if post is not None:
+        bound, bound_notes = _check_against_bound(by_method, lik, post, settings.seed)
+        notes += bound_notes
+        if bound:
+            calls["lower_bound"] = bound["n_calls"]
     log_z, err = combine_methods(by_method)
     notes += _disagreements(by_method)
 
@@ -252,7 +263,8 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
             widened = {"log_evidence": lz2, "delta": lz2 - log_z, "units": "nats"}
             notes += sens_notes
     return ModelEvidence(name, model.label, model.rings, lik.ndim, by_method, log_z, err, elpd, se, widened,
-                         {k: float(v) for k, v in seconds.items()}, calls, converged, key, tuple(notes))
+                         {k: float(v) for k, v in seconds.items()}, calls, converged, key, tuple(notes),
+                         bound)
 
 
 def _missed_mode(runs, post, lik) -> list[str]:
@@ -267,6 +279,29 @@ def _missed_mode(runs, post, lik) -> list[str]:
                                                                lik.params.units, strict=True))
     return [f"nested sampling found a log-likelihood {gap:.1f} nats above every emcee draw: the emcee "
             f"posterior (started from the least-squares fit) misses the dominant mode, near {where}"]
+
+
+def _check_against_bound(by_method: dict, lik: Likelihood, post, seed: int) -> tuple[dict, list[str]]:
+    """The evidence lower bound from the emcee draws (:mod:`.bound`, as a JSON dict) and warnings;
+    an estimate of ``by_method`` far below it is marked ``excluded`` (:func:`~.records.combine_methods`
+    leaves it out)."""
+    bound = evidence_lower_bound(lik.log_posterior_z, lik.params.to_z(post.draws), seed=seed)
+    if bound is None:
+        return {}, []
+    out = []
+    for name in ("nested", "bridge"):
+        m = by_method.get(name)
+        if m is None:
+            continue
+        sigmas = below_bound(m.get("log_evidence"), m.get("err"), bound)
+        if sigmas is None:
+            continue
+        m["excluded"] = (f"{bound.log_evidence - m['log_evidence']:.2f} nats ({sigmas:.1f} standard errors) "
+                         f"below the evidence lower bound {bound.log_evidence:.2f} +- {bound.err:.2f}")
+        why = (" (its live points never reached the posterior's likelihood)" if name == "nested" else "")
+        out.append(f"{name} log Z {m['log_evidence']:.2f} nats is {m['excluded']} from the emcee draws: it "
+                   f"is wrong{why} and is left out of the combined log Z")
+    return bound.to_json_dict(), out
 
 
 def _disagreements(by_method: dict) -> list[str]:

@@ -8,7 +8,8 @@ JSON schema (issue 11), with extra fields after the required ones::
      "best", "bayes_factors": {"A/B": ln B [nats]}, "warnings": [...], ...}
 
 ``log_evidence`` of a model combines its independent estimators (nested sampling and bridge
-sampling; Laplace is a screen and never enters) by inverse-variance weighting, each method's
+sampling; Laplace is a screen and never enters, nor does an estimate marked ``excluded``: one
+far below the evidence lower bound, :mod:`.bound`) by inverse-variance weighting, each method's
 error taken as the larger of its own error estimate and its spread over repeats; the combined
 error is the weighted one, raised to half the estimators' difference when they disagree by more
 than their errors allow. All log evidences are natural logs [nats].
@@ -40,7 +41,8 @@ def combine_methods(by_method: Mapping[str, Mapping]) -> tuple[float, float]:
     vals, errs = [], []
     for name in _COMBINED:
         m = by_method.get(name)
-        if m is None or m.get("log_evidence") is None or not math.isfinite(float(m["log_evidence"])):
+        if (m is None or m.get("excluded") or m.get("log_evidence") is None
+                or not math.isfinite(float(m["log_evidence"]))):
             continue
         vals.append(float(m["log_evidence"]))
         errs.append(max(_method_err(m), 1e-6))
@@ -72,6 +74,8 @@ class ModelEvidence:
     converged : whether the emcee posterior met its stopping rule.
     key : identity of the run (data, model, priors, settings, seed) for resuming.
     warnings : what makes a number untrustworthy.
+    lower_bound : the evidence lower bound from the emcee draws (``{"log_evidence", "err", ...}``
+        [nats], :mod:`.bound`), a check on ``by_method``, or ``{}``.
     """
 
     name: str
@@ -89,6 +93,7 @@ class ModelEvidence:
     converged: bool = True
     key: str = ""
     warnings: tuple[str, ...] = ()
+    lower_bound: dict = field(default_factory=dict)
 
     @property
     def seconds_total(self) -> float:
@@ -101,7 +106,7 @@ class ModelEvidence:
                 "label": self.label, "n_params": self.n_params, "units": "nats",
                 "prior_widths_doubled": self.widened, "seconds": self.seconds,
                 "evidence_seconds": self.seconds_total, "calls": self.calls, "converged": self.converged,
-                "key": self.key, "warnings": list(self.warnings)}
+                "key": self.key, "warnings": list(self.warnings), "lower_bound": self.lower_bound}
 
     @classmethod
     def from_json_dict(cls, d: Mapping) -> ModelEvidence:
@@ -114,7 +119,7 @@ class ModelEvidence:
                    None if d.get("elpd_loo_se") is None else float(d["elpd_loo_se"]),
                    dict(d.get("prior_widths_doubled", {})), dict(d.get("seconds", {})),
                    dict(d.get("calls", {})), bool(d.get("converged", True)), d.get("key", ""),
-                   tuple(d.get("warnings", ())))
+                   tuple(d.get("warnings", ())), dict(d.get("lower_bound") or {}))
 
 
 def _num(x):
