@@ -67,7 +67,7 @@ import numpy as np
 
 from .._atomic import atomic_path, atomic_write_text
 from ..errors import ConvergenceWarning
-from .batching import BatchingPool, BatchRWalkSampler, Relay, register, unregister
+from .batching import BatchingPool, BatchRWalkSampler, BatchSliceSampler, Relay, register, unregister
 
 __all__ = ["NestedSettings", "NestedRun", "run_nested", "read_nested"]
 
@@ -272,6 +272,8 @@ def run_nested(target, *, seed: int = 0, settings: NestedSettings = NestedSettin
             method = settings.sample
             if method == "rwalk":
                 method = BatchRWalkSampler(walks=settings.walks)
+            elif method == "slice":
+                method = BatchSliceSampler(slices=settings.slices or 3)  # dynesty's default: 3
             elif settings.slices is not None:
                 kwargs["slices"] = settings.slices
             sampler = dynesty.NestedSampler(
