@@ -54,6 +54,7 @@ def test_compare_writes_the_issue_schema_and_resumes(data_file, tmp_path, capsys
     (["--models", "I,XYZ"], "--models: XYZ"),
     (["--models", "NL", "--rings", "0-2"], "--rings"),
     (["--methods", "bridge,magic"], "unknown evidence method"),
+    (["--sample", "slice", "--walks", "50"], "--walks"),
 ])
 def test_compare_user_errors_exit_2_with_one_line(data_file, capsys, argv, message):
     rc = main(["compare", str(data_file), *argv, "--quiet"])
@@ -79,3 +80,13 @@ def test_compare_ring_counts_report_evidence_beside_hankel(tmp_path):
     assert [m["name"] for m in d["models"]] == ["NL(1)", "NL(2)"]
     assert [m["rings"] for m in d["models"]] == [1, 2]
     assert d["rings"]["hankel"] >= 1 and "agreement" in d["rings"]
+
+
+def test_compare_with_slice_sampling(data_file, tmp_path):
+    out = tmp_path / "cmp_slice.json"
+    rc = main(["compare", str(data_file), "--models", "I", "--json", str(out), "--sample", "slice",
+               "--nlive", "20", "--max-steps", "500", "--quiet", "--methods", "nested"])
+    assert rc in (0, 1)
+    d = json.loads(out.read_text())
+    assert d["settings"]["nested"]["sample"] == "slice"
+    assert np.isfinite(d["models"][0]["by_method"]["nested"]["log_evidence"])
