@@ -37,13 +37,16 @@ dimension threshold separates it from the 7–9-parameter models. The dead point
 with the exact X(L), go wrong between log X ≈ −17 and −29, where the constrained region is most
 skewed in the unit cube (tails to u ≈ 0.5, bulk at u ≈ 0.05): 100 steps do not decorrelate a new
 point from its start there. Walks 300 recover it (−0.9, −2.5, −0.7, +1.9, +0.4) at 3× the calls,
-and so does dynesty's ``sample="slice"`` (4 seeds, +0.5 to +1.8) at 2.3× the calls (not batched
-here: 14× the time). Neither is the default: the 17-parameter NL model's nested run (2.2 M calls,
-158 s on the bundled data) would triple (2.3× and unbatched with slice), against the 10-minute
-budget for six models. Changes at the same cost did not fix it (target acceptance 0.234 or 0.15,
+and so does slice sampling, ``sample="slice"`` (batched here, :class:`~.batching.BatchSliceSampler`:
+−0.4, +0.8, −0.8, +2.3, +2.3 on seeds 1, 2, 3, 4, 7, with 2.2× the evaluations and 2.6× the time;
+the Gaussian in a box and the linear-Gaussian pass with it too). Neither is the default: the
+17-parameter NL model's nested run on the bundled data takes 158 s with the random walk and 522 s
+with slice sampling (log Z 27499.4 ± 1.3 nats), against the 10-minute budget for six models.
+Changes at the same cost did not fix it (target acceptance 0.234 or 0.15,
 faster scale tuning, ``bound="single"``); ``bound="none"`` did, but put model I 160 and 1560 nats
 below the default runs. For skewed posteriors of positive parameters under *uniform* priors in ≳
-10-D, pass ``walks ≈ 20·k`` (``--walks``), or give such parameters log-uniform priors.
+10-D, use ``sample="slice"`` (``--sample slice``) or ``walks ≈ 20·k`` (``--walks``), or give such
+parameters log-uniform priors.
 
 Checkpoint and resume: dynesty's own state file (a pickle written atomically every
 ``checkpoint_every`` seconds and at the end) beside a JSON identity (data, priors, settings,
@@ -81,7 +84,8 @@ class NestedSettings:
     Attributes
     ----------
     n_live : live points (statistical error ``≈ sqrt(H/n_live)`` nats).
-    sample : dynesty's proposal inside the bound (``rwalk``, ``rslice``, ``slice``, ``unif``).
+    sample : dynesty's proposal inside the bound (``rwalk`` and ``slice``, batched; ``rslice``,
+        ``unif``).
     bound : dynesty's bounding distribution (``multi``, ``single``, ``none``, ...).
     walks : random-walk steps per new point (``rwalk``; module docstring for the default).
     slices : slice-sampling steps per new point (``rslice``/``slice``; ``None``: dynesty's default).
