@@ -75,3 +75,21 @@ def test_an_estimate_far_below_the_bound_is_refused_and_left_out():
     lz, err = combine_methods(by_method)
     assert lz < C and err == pytest.approx(25.0)  # half the estimators' difference
     assert math.isfinite(lz)
+
+
+def test_bound_when_most_of_q_falls_outside_the_support():
+    # 15 exponential coordinates piled against their prior bound at 0 (spare-ring parameters of an
+    # over-sized NL model look like this): most of the fitted Gaussian falls outside, and q is
+    # drawn until enough land inside. log Z = C + 15 log s exactly
+    s, k = 0.01, 15
+
+    def logp(z):
+        z = np.atleast_2d(z)
+        return np.where(np.all(z > 0, axis=1), C - np.sum(z, axis=1) / s, -np.inf)
+
+    draws = np.random.default_rng(4).exponential(s, size=(4000, k))
+    b = evidence_lower_bound(logp, draws, seed=4)
+    truth = C + k * math.log(s)
+    assert b is not None and b.inside < 0.1
+    assert b.log_evidence <= truth + 3 * b.err
+    assert b.log_evidence > truth - 10.0
