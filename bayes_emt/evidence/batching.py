@@ -305,7 +305,8 @@ def batched_slice(args: list, prior_transform, evaluate) -> list:
     Same moves, same interval rules and the same call counts per job as dynesty's (a point outside
     the unit cube counts as a call of log L = −inf, as there); the random numbers come from one
     generator seeded by the first job's seed. Neal's doubling variant (dynesty switches to it after
-    1000 expansions in one step) is not implemented; such a step is flagged in the tuning info.
+    1000 expansions in one step) is not implemented: a job with such a step reports
+    ``expansion_warning_set`` in its tuning info, and stepping out goes on one width at a time.
     """
     kw = args[0].kwargs
     if kw.get("periodic") is not None or kw.get("reflective") is not None:
@@ -324,6 +325,7 @@ def batched_slice(args: list, prior_transform, evaluate) -> list:
     nc = np.zeros(nq, int)
     n_expand = np.zeros(nq, int)
     n_contract = np.zeros(nq, int)
+    long_step = np.zeros(nq, bool)  # a step that expanded more than 1000 times
     v = np.full_like(u, np.nan)
     logl = np.full(nq, np.nan)
     allq = np.arange(nq)
@@ -350,6 +352,7 @@ def batched_slice(args: list, prior_transform, evaluate) -> list:
             left, right = -r0, 1.0 - r0
             ends = F(np.r_[allq, allq], np.r_[left, right], np.r_[d, d])[2]
             ll, lr = ends[:nq], ends[nq:]
+            expand_before = n_expand.copy()
             while True:  # stepping out, both ends of every job in one call per round
                 gl, gr = np.flatnonzero(ll > loglstar), np.flatnonzero(lr > loglstar)
                 if gl.size == 0 and gr.size == 0:
@@ -361,6 +364,7 @@ def batched_slice(args: list, prior_transform, evaluate) -> list:
                 q = np.r_[gl, gr]
                 vals = F(q, np.r_[left[gl], right[gr]], d[q])[2]
                 ll[gl], lr[gr] = vals[: gl.size], vals[gl.size :]
+            long_step |= n_expand - expand_before > 1000
             todo = allq.copy()
             while todo.size:  # shrinkage
                 x = left[todo] + rng.random(todo.size) * (right[todo] - left[todo])
@@ -377,7 +381,7 @@ def batched_slice(args: list, prior_transform, evaluate) -> list:
                 todo = miss
     return [SamplerReturn(u=u[q].copy(), v=v[q].copy(), logl=float(logl[q]), ncalls=int(nc[q]),
                           tuning_info={"n_expand": int(n_expand[q]), "n_contract": int(n_contract[q]),
-                                       "expansion_warning_set": False},
+                                       "expansion_warning_set": bool(long_step[q])},
                           evaluation_history=[],
                           proposal_stats={"n_expand": int(n_expand[q]), "n_contract": int(n_contract[q])})
             for q in range(nq)]

@@ -298,7 +298,7 @@ def _check_against_bound(by_method: dict, lik: Likelihood, post, seed: int) -> t
             continue
         m["excluded"] = (f"{bound.log_evidence - m['log_evidence']:.2f} nats ({sigmas:.1f} standard errors) "
                          f"below the evidence lower bound {bound.log_evidence:.2f} +- {bound.err:.2f}")
-        why = (" (its live points never reached the posterior's likelihood)" if name == "nested" else "")
+        why = " (its live points missed the posterior mass the emcee draws found)" if name == "nested" else ""
         out.append(f"{name} log Z {m['log_evidence']:.2f} nats is {m['excluded']} from the emcee draws: it "
                    f"is wrong{why} and is left out of the combined log Z")
     return bound.to_json_dict(), out
