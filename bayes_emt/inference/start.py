@@ -210,9 +210,11 @@ def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Ge
             cand[:, i] = rng.uniform(a, b, size=n)
         span = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
         cand = np.clip(cand, lo + 1e-9 * span, hi - 1e-9 * span)
-        good = cand[np.isfinite(target.log_posterior_z(cand))][:n]
+        lp = target.log_posterior_z(cand)
+        keep = np.flatnonzero(np.isfinite(lp))[:n]
+        good = cand[keep]
         if capped:
-            good = _pull_free_coordinates(target, np.r_[z0, centre], good,
+            good = _pull_free_coordinates(target, np.r_[z0, centre], good, lp[keep],
                                           np.r_[sd > cap, np.zeros(len(centre), bool)])
         out[filled : filled + good.shape[0]] = good
         filled += good.shape[0]
@@ -223,19 +225,20 @@ def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Ge
                    "the least-squares fit (check the priors against the fitted values)")
 
 
-def _pull_free_coordinates(target, centre: np.ndarray, z: np.ndarray, free: np.ndarray, *,
-                           steps: int = 40) -> np.ndarray:
-    """``z (n, d)`` with the coordinates of the boolean mask ``free`` (``m`` of them) pulled towards
-    ``centre``'s wherever they cost the walker more than ``m/2 + 5 sqrt(m/2)`` nats of log posterior
-    against the same walker with them at the centre's values: by bisection on the fraction of the
-    way, to the farthest point within that allowance (all walkers in one call per step)."""
+def _pull_free_coordinates(target, centre: np.ndarray, z: np.ndarray, lp_z: np.ndarray, free: np.ndarray,
+                           *, steps: int = 40) -> np.ndarray:
+    """``z (n, d)``, whose log posteriors are ``lp_z``, with the coordinates of the boolean mask
+    ``free`` (``m`` of them) pulled towards ``centre``'s wherever they cost the walker more than
+    ``m/2 + 5 sqrt(m/2)`` nats of log posterior against the same walker with them at the centre's
+    values: by bisection on the fraction of the way, to the farthest point within that allowance
+    (all walkers in one call per step)."""
     free = np.asarray(free, bool)
     m = int(free.sum())
     if z.shape[0] == 0 or m == 0:
         return z
     base = np.where(free, centre, z)  # the fraction 0 of the way
     floor = target.log_posterior_z(base) - (0.5 * m + 5.0 * math.sqrt(0.5 * m))
-    bad = np.flatnonzero(np.isfinite(floor) & ~(target.log_posterior_z(z) >= floor))
+    bad = np.flatnonzero(np.isfinite(floor) & ~(lp_z >= floor))
     if bad.size == 0:
         return z
     dz = z[bad] - base[bad]
