@@ -99,17 +99,15 @@ def test_comparison_leaves_out_an_estimate_below_the_bound_and_says_why():
     # the step of bayes_emt.evidence.compare that checks the sampled estimates, on a known answer
     # (the 6-D log-normal under uniform priors, exact posterior draws): a nested estimate 40 nats
     # low is excluded with a warning, a right one is kept
-    from types import SimpleNamespace
-
     from evidence_problems import LogNormalUnderUniform
 
     from bayes_emt.evidence.compare import _check_against_bound
 
     p = LogNormalUnderUniform(6)
-    post = SimpleNamespace(draws=p.posterior_draws(np.random.default_rng(2), 4000))
+    draws = p.posterior_draws(np.random.default_rng(2), 4000)
     by_method = {"nested": {"log_evidence": p.truth - 40.0, "err": 0.4},
                  "bridge": {"log_evidence": p.truth, "err": 0.05}}
-    bound, notes = _check_against_bound(by_method, p, post, seed=2)
+    bound, notes = _check_against_bound(by_method, p.log_posterior_z, p.params.to_z(draws), seed=2)
     assert bound["log_evidence"] <= p.truth + 3 * bound["err"]
     assert "excluded" in by_method["nested"] and "excluded" not in by_method["bridge"]
     assert len(notes) == 1 and notes[0].startswith("nested log Z") and "left out" in notes[0]

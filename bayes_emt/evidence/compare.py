@@ -243,7 +243,7 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
 
     bound = {}
     if post is not None:
-        bound, bound_notes = _check_against_bound(by_method, lik, post, settings.seed)
+        bound, bound_notes = _check_against_bound(by_method, lik.log_posterior_z, draws_z, settings.seed)
         notes += bound_notes
         if bound:
             calls["lower_bound"] = bound["n_calls"]
@@ -281,11 +281,12 @@ def _missed_mode(runs, post, lik) -> list[str]:
             f"posterior (started from the least-squares fit) misses the dominant mode, near {where}"]
 
 
-def _check_against_bound(by_method: dict, lik: Likelihood, post, seed: int) -> tuple[dict, list[str]]:
-    """The evidence lower bound from the emcee draws (:mod:`.bound`, as a JSON dict) and warnings;
+def _check_against_bound(by_method: dict, log_density_z, draws_z, seed: int) -> tuple[dict, list[str]]:
+    """The evidence lower bound of ``log_density_z`` from the emcee draws ``draws_z`` (sampling
+    space; :mod:`.bound`), as a JSON dict, and warnings;
     an estimate of ``by_method`` far below it is marked ``excluded`` (:func:`~.records.combine_methods`
     leaves it out)."""
-    bound = evidence_lower_bound(lik.log_posterior_z, lik.params.to_z(post.draws), seed=seed)
+    bound = evidence_lower_bound(log_density_z, draws_z, seed=seed)
     if bound is None:
         return {}, []
     out = []
