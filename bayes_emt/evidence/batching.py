@@ -281,18 +281,22 @@ def _unit_cube_batched(args: list, prior_transform, evaluate) -> list:
             for q in range(nq)]
 
 
-def _rwalk_sample(args):
-    """One job, dynesty's own way (used when no :class:`BatchingPool` runs the queue)."""
-    return RWalkSampler.sample(args)
+def _batchable(base, batched):
+    """A ``sample`` for a subclass of dynesty's sampler ``base``: one job ``base``'s own way (when
+    no :class:`BatchingPool` runs the queue), carrying ``batched``, the vectorised version for a
+    whole queue that :meth:`BatchingPool.map` runs instead."""
 
+    def sample(args):
+        return base.sample(args)
 
-_rwalk_sample.batched = batched_random_walk
+    sample.batched = batched
+    return staticmethod(sample)
 
 
 class BatchRWalkSampler(RWalkSampler):
     """dynesty's ``rwalk`` whose queue a :class:`BatchingPool` runs vectorised."""
 
-    sample = staticmethod(_rwalk_sample)
+    sample = _batchable(RWalkSampler, batched_random_walk)
 
 
 def batched_slice(args: list, prior_transform, evaluate) -> list:
@@ -387,15 +391,7 @@ def batched_slice(args: list, prior_transform, evaluate) -> list:
             for q in range(nq)]
 
 
-def _slice_sample(args):
-    """One job, dynesty's own way (used when no :class:`BatchingPool` runs the queue)."""
-    return SliceSampler.sample(args)
-
-
-_slice_sample.batched = batched_slice
-
-
 class BatchSliceSampler(SliceSampler):
     """dynesty's ``slice`` whose queue a :class:`BatchingPool` runs vectorised."""
 
-    sample = staticmethod(_slice_sample)
+    sample = _batchable(SliceSampler, batched_slice)
