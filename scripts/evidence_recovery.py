@@ -64,6 +64,11 @@ def _save(path: Path, data: dict) -> None:
     atomic_write_text(path, json.dumps(data, indent=2))
 
 
+def _by_method(cmp) -> dict:
+    """``{model: {method: log Z [nats]}}`` of a comparison."""
+    return {m.name: {k: v.get("log_evidence") for k, v in m.by_method.items()} for m in cmp.models}
+
+
 def _success(generator: str, models) -> tuple[bool, str]:
     """Generating model best, or within 1 nat of a winner with no more parameters."""
     best = max(models, key=lambda m: m.log_evidence)
@@ -92,8 +97,7 @@ def run_models(args) -> int:
             data[key] = {"generator": gen, "seed": seed, "success": ok, "best": best,
                          "log_evidence": {m.name: m.log_evidence for m in cmp.models},
                          "err": {m.name: m.log_evidence_err for m in cmp.models},
-                         "by_method": {m.name: {k: v.get("log_evidence") for k, v in m.by_method.items()}
-                                       for m in cmp.models},
+                         "by_method": _by_method(cmp),
                          "seconds": time.perf_counter() - t, "warnings": cmp.all_warnings()}
             _save(out, data)
             print(f"{key}: best {best}, {'ok' if ok else 'MISS'} ({data[key]['seconds']:.0f} s)", flush=True)
@@ -130,7 +134,7 @@ def run_rings(args) -> int:
             if key in data:
                 continue
             model = as_model("NL", rings=n)
-            meas = simulate(model, nl_truth(n, args.uniform), noise=0.002, seed=seed,
+            meas = simulate(model, nl_truth(n, uniform), noise=0.002, seed=seed,
                             source=f"sim NL({n}) seed {seed}")
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -139,8 +143,7 @@ def run_rings(args) -> int:
                 choice = ring_choice(meas, cmp.models)
             data[key] = {"rings": n, "seed": seed, "truth": "uniform rings" if uniform else "paper Table 5",
                          **{k: choice[k] for k in _RING_KEYS},
-                         "by_method": {m.name: {k: v.get("log_evidence") for k, v in m.by_method.items()}
-                                       for m in cmp.models},
+                         "by_method": _by_method(cmp),
                          "lower_bound": {m.name: m.lower_bound.get("log_evidence") for m in cmp.models},
                          "warnings": cmp.all_warnings()}
             _save(out, data)
