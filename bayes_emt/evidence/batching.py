@@ -200,6 +200,22 @@ class BatchingPool:
         return np.where(np.isnan(vals), -np.inf, vals)
 
 
+def _queue(args: list, what: str):
+    """``(kwargs, loglstar, u (Q, k), axes (Q, k, k), scale (Q,), rng)`` of a queue of dynesty jobs
+    (the sampler's keyword arguments, ``L*`` and the generator from the first job), refusing what
+    the batched samplers do not support (``what`` names the sampler in the message)."""
+    kw = args[0].kwargs
+    if kw.get("periodic") is not None or kw.get("reflective") is not None:
+        raise ValueError(f"{what} supports no periodic or reflective parameters")
+    u = np.array([a.u for a in args], float)
+    n = u.shape[1]
+    axes = np.array([a.axes for a in args], float)
+    if axes.shape[1:] != (n, n):
+        raise ValueError(f"{what} needs ncdim == ndim")
+    scale = np.array([a.scale for a in args], float)
+    return kw, args[0].loglstar, u, axes, scale, get_random_generator(args[0].rseed)
+
+
 def batched_random_walk(args: list, prior_transform, evaluate) -> list:
     """dynesty's random walk (``generic_random_walk``) for a whole queue of jobs, vectorised: one
     likelihood call per step, proposals drawn for all jobs at once.
@@ -211,19 +227,10 @@ def batched_random_walk(args: list, prior_transform, evaluate) -> list:
     seeds every job from the run's ``rstate``), so a seeded run is reproducible, but its draws
     differ from dynesty's per-job function.
     """
-    kw = args[0].kwargs
-    if kw.get("periodic") is not None or kw.get("reflective") is not None:
-        raise ValueError("the batched random walk supports no periodic or reflective parameters")
+    kw, loglstar, u, axes, scale, rng = _queue(args, "the batched random walk")
     walks = int(kw["walks"])
-    loglstar = args[0].loglstar
-    nq = len(args)
-    u = np.array([a.u for a in args], float)
-    n = u.shape[1]
-    axes = np.array([a.axes for a in args], float)
-    if axes.shape[1:] != (n, n):
-        raise ValueError("the batched random walk needs ncdim == ndim")
-    scale = np.array([a.scale for a in args], float)[:, None]
-    rng = get_random_generator(args[0].rseed)
+    nq, n = u.shape
+    scale = scale[:, None]
     v = np.full_like(u, np.nan)
     logl = np.full(nq, np.nan)
     n_accept = np.zeros(nq, int)
@@ -312,19 +319,10 @@ def batched_slice(args: list, prior_transform, evaluate) -> list:
     1000 expansions in one step) is not implemented: a job with such a step reports
     ``expansion_warning_set`` in its tuning info, and stepping out goes on one width at a time.
     """
-    kw = args[0].kwargs
-    if kw.get("periodic") is not None or kw.get("reflective") is not None:
-        raise ValueError("the batched slice sampler supports no periodic or reflective parameters")
+    kw, loglstar, u, axes, scale, rng = _queue(args, "the batched slice sampler")
     slices = int(kw.get("slices", 5))
-    loglstar = args[0].loglstar
-    nq = len(args)
-    u = np.array([a.u for a in args], float)
-    n = u.shape[1]
-    axes = np.array([a.axes for a in args], float)
-    if axes.shape[1:] != (n, n):
-        raise ValueError("the batched slice sampler needs ncdim == ndim")
-    dirs = np.array([a.scale for a in args], float)[:, None, None] * np.transpose(axes, (0, 2, 1))
-    rng = get_random_generator(args[0].rseed)
+    nq, n = u.shape
+    dirs = scale[:, None, None] * np.transpose(axes, (0, 2, 1))
     maxlen = np.sqrt(n) / 2.0
     nc = np.zeros(nq, int)
     n_expand = np.zeros(nq, int)
