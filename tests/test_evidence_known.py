@@ -1,5 +1,6 @@
 """Known-answer evidence problems (issue 11, acceptance 1): nested and bridge sampling each within
-3 of their own reported standard errors of the analytic log Z.
+3 of their own reported standard errors of the analytic log Z. (Nested sampling here runs from
+the prior; the repartitioned run ``compare`` uses by default: tests/test_evidence_repartition.py.)
 
 Analytic values (tests/evidence_problems.py):
 * correlated Gaussian in a box: log Z = −Σ log w_i (the normalised Gaussian integrates to 1);
@@ -86,9 +87,10 @@ def test_bridge_on_emcee_draws_recovers_the_evidence_15d(problem):
     assert abs(br.log_z - p.truth) < 3 * max(br.err, FLOOR), (br.log_z, br.err, p.truth)
 
 
-# NOT MET (issue 11, acceptance 1): with the package's own settings (NestedSettings(): n_live 100,
-# rwalk, walks 100, bound multi) the 15-D log-normal under uniform priors comes out low. Measured
-# (truth -44.94 nats, (log Z - truth)/err): seeds 1, 2, 3, 4, 7 -> -7.2, -12.4, -0.6, -2.9, -6.0
+# Nested sampling FROM THE PRIOR (``compare --nested-prior prior``; the default, repartitioned onto
+# the emcee draws, passes all three: tests/test_evidence_repartition.py) with NestedSettings()
+# (n_live 100, rwalk, walks 100, bound multi): the 15-D log-normal under uniform priors comes out
+# low. Measured (truth -44.94 nats, (log Z - truth)/err): seeds 1, 2, 3, 4, 7 -> -7.2, -12.4, -0.6, -2.9, -6.0
 # (log Z -49.9, -53.9, -45.3, -46.8, -49.2 +- 0.65-0.72), while the Gaussian in a box (-0.9..+1.7)
 # and the linear-Gaussian (-0.4..+1.1) pass with the same settings and seeds. Comparing the dead
 # points' log X with the exact X(L) (a 15-fold convolution) puts the error in the phase
@@ -116,7 +118,7 @@ _LOGNORMAL_15D = pytest.param(LogNormalUnderUniform, marks=pytest.mark.xfail(
 @pytest.mark.parametrize("problem", [GaussianInBox, LinearGaussian, _LOGNORMAL_15D],
                          ids=["GaussianInBox", "LinearGaussian", "LogNormalUnderUniform"])
 def test_nested_recovers_the_evidence_15d(problem):
-    """The package's own nested settings (what ``bayes-emt compare`` uses on real models)."""
+    """The package's own nested settings, run from the prior (``compare --nested-prior prior``)."""
     p = problem(15)
     run = run_nested(p, seed=7, settings=NestedSettings())
     assert run.converged

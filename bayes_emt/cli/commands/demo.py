@@ -3,7 +3,8 @@
 1. fit every coil model (automatic start + two-step least squares) and, in the full run, choose the
    NL ring count by Hankel singular values;
 2. compare the models by evidence: each model's emcee posterior (checkpointed), bridge sampling on
-   it, the Laplace screen at its mode beside (nested sampling is left to ``bayes-emt compare``);
+   it and, in the full run, nested sampling with its prior repartitioned onto the draws (the second
+   estimator, a few seconds per model), the Laplace screen at its mode beside;
 3. keep the posterior of the model the evidence prefers (Bode bands, corner plot);
 4. design the H∞-optimal RC shunt per model, each evaluated on the best-fitting model, and push the
    posterior through the shunt design for a robust choice (``shunt --posterior``, issue 12);
@@ -38,8 +39,9 @@ bayes-emt demo --data speaker.zma --concealed other.zma  (your own recordings in
 bayes-emt demo --skip diagnose --quiet
 """
 
-FULL = {"models": ("I", "II", "III", "UD", "NL", "UL"), "hankel": True, "methods": ("laplace", "bridge"),
-        "max_steps": 20000, "screen_steps": 500, "draws": 1000, "loo": True, "bridge_seeds": 2}
+FULL = {"models": ("I", "II", "III", "UD", "NL", "UL"), "hankel": True,
+        "methods": ("laplace", "bridge", "nested"), "max_steps": 20000, "screen_steps": 500, "draws": 1000,
+        "loo": True, "bridge_seeds": 2}
 QUICK = {"models": ("I", "II", "NL"), "hankel": False, "methods": ("laplace", "bridge"), "max_steps": 300,
          "screen_steps": 0, "draws": 200, "loo": False, "bridge_seeds": 1}
 #: steps --skip may leave out
