@@ -165,7 +165,8 @@ def run_realdata(args) -> int:
         cmp = compare_models(meas, [(f"NL({m})", as_model("NL", rings=m)) for m in cands],
                              settings=_settings(args))
         choice = ring_choice(meas, cmp.models)
-    res = {"file": args.file, **{k: choice[k] for k in _RING_KEYS},
+    res = {"file": args.file, **{k: choice[k] for k in _RING_KEYS}, "by_method": _by_method(cmp),
+           "lower_bound": {m.name: m.lower_bound.get("log_evidence") for m in cmp.models},
            "warnings": cmp.all_warnings()}
     data = _load(Path(args.json))
     data[f"realdata/{args.file}"] = res
