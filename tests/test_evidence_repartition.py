@@ -90,7 +90,9 @@ def test_repartition_refuses_too_few_draws():
 @pytest.mark.parametrize("problem", PROBLEMS, ids=lambda c: c.__name__)
 def test_repartitioned_nested_on_emcee_draws_recovers_the_evidence_15d(problem):
     """What ``bayes-emt compare`` runs by default: the proposal placed on the package's own emcee
-    draws (not exact ones), then nested sampling with NestedSettings()."""
+    draws (not exact ones), then nested sampling with NestedSettings(). Measured (emcee seed 3),
+    (log Z − truth)/err for nested seeds 7, 8, 9: Gaussian in a box +0.22, +2.16, −0.12;
+    linear-Gaussian +0.04, +2.04, +0.05; log-normal +0.14, +1.59, +0.27 (errors 0.21 nats)."""
     from test_evidence_known import _emcee_draws
 
     p = problem(15)
