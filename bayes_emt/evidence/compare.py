@@ -233,8 +233,11 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
                              "draws, which only the bridge method makes")
             else:
                 target = RepartitionedTarget(lik, Repartition.from_draws(lik.params, draws_z))
+        # a repartitioned run's checkpoint is named by its proposal prior: draws that differ (an
+        # emcee run resumed elsewhere) start a new run instead of being refused
+        tag = "" if target is lik else "_" + target.repartition.sha256()[:8]
         for r in range(settings.nested_repeats):
-            ckpt = None if work is None else work / f"{stem}_nested{r}.dynesty"
+            ckpt = None if work is None else work / f"{stem}_nested{r}{tag}.dynesty"
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", ConvergenceWarning)
                 run = run_nested(target, seed=settings.seed + r, settings=settings.nested, checkpoint=ckpt,
