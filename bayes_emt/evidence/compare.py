@@ -232,7 +232,11 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
                 notes.append("nested sampling ran from the prior: its repartitioned prior needs the emcee "
                              "draws, which only the bridge method makes")
             else:
-                target = RepartitionedTarget(lik, Repartition.from_draws(lik.params, draws_z))
+                try:
+                    target = RepartitionedTarget(lik, Repartition.from_draws(lik.params, draws_z))
+                except (ValueError, np.linalg.LinAlgError) as exc:
+                    notes.append(f"nested sampling ran from the prior: the emcee draws cannot place its "
+                                 f"repartitioned prior ({exc})")
         # a repartitioned run's checkpoint is named by its proposal prior: draws that differ (an
         # emcee run resumed elsewhere) start a new run instead of being refused
         tag = "" if target is lik else "_" + target.repartition.sha256()[:8]
