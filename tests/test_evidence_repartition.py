@@ -126,3 +126,22 @@ def test_compare_repartitions_by_default_and_agrees_with_bridge(tmp_path):
           "--methods", "nested", "--nlive", "20", "--walks", "20"])
     m2 = json.loads(out2.read_text())["models"][0]
     assert m2["by_method"]["nested"]["prior"] == "prior"
+
+
+def test_compare_falls_back_to_the_prior_when_the_draws_cannot_place_the_proposal(monkeypatch):
+    from bayes_emt import build_model, simulate
+    from bayes_emt.evidence import compare
+    from bayes_emt.inference.sampling import SamplerSettings
+    from bayes_emt.reference import PAPER_TABLES
+
+    def refuse(*args, **kwargs):
+        raise ValueError("3 finite posterior draws cannot place a 9-parameter proposal prior")
+
+    monkeypatch.setattr(compare.Repartition, "from_draws", refuse)
+    meas = simulate(build_model("I"), PAPER_TABLES["I"], np.geomspace(10, 1e5, 60), noise=0.002, seed=5)
+    settings = compare.CompareSettings(methods=("bridge", "nested"), loo=False, sensitivity=False,
+                                       nested=NestedSettings(n_live=20, walks=20),
+                                       sampler=SamplerSettings(max_steps=500))
+    m = compare.model_evidence(meas, build_model("I"), settings=settings)
+    assert m.by_method["nested"]["prior"] == "prior"
+    assert any("cannot place its repartitioned prior (3 finite posterior draws" in w for w in m.warnings)
