@@ -63,6 +63,7 @@ def test_repartitioned_nested_recovers_the_analytic_evidence_low_dim(problem):
     assert run.converged
     assert abs(run.log_z - p.truth) < 3 * run.log_z_err, (run.log_z, run.log_z_err, p.truth)
     assert run.information < 5.0  # nats: the point of repartitioning (from the prior: 20-30)
+    assert "log_l is log(L pi / pi~)" in run.message  # the stored log_l is not log L
 
 
 def test_the_answer_does_not_depend_on_the_proposal():

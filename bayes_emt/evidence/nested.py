@@ -314,6 +314,8 @@ def run_nested(target, *, seed: int = 0, settings: NestedSettings = NestedSettin
     message = (f"converged: {res['niter']} iterations, {ncall} likelihood calls, H = "
                f"{float(res['information'][-1]):.1f} nats" if converged else
                f"stopped at the call budget {settings.max_calls} before dlogz {settings.dlogz} was reached")
+    if hasattr(target, "repartition"):
+        message += "; prior repartitioned onto posterior draws: log_l is log(L pi / pi~), not log L"
     if not converged:
         warnings.warn(f"{label}: nested sampling {message}", ConvergenceWarning, stacklevel=2)
     if not math.isfinite(log_z):

@@ -44,7 +44,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special, stats
+from scipy import linalg, special, stats
 
 from ..params import ParamSet
 from .warp import Warp
@@ -99,7 +99,8 @@ class Repartition:
     def log_density_xi(self, xi) -> np.ndarray:
         """``log π̃(ξ)``, shape ``xi.shape[:-1]``."""
         d = np.asarray(xi, float) - self.mean
-        y = np.linalg.solve(self.chol, d.reshape(-1, self.ndim).T).T.reshape(d.shape)
+        y = linalg.solve_triangular(self.chol, d.reshape(-1, self.ndim).T, lower=True,
+                                    check_finite=False).T.reshape(d.shape)  # a point on a bound: xi = +-inf
         nu = self.nu
         c = special.gammaln((nu + 1) / 2) - special.gammaln(nu / 2) - 0.5 * math.log(nu * math.pi)
         logdet = float(np.sum(np.log(np.abs(np.diag(self.chol)))))
