@@ -53,7 +53,7 @@ parameters log-uniform priors.
 
 What ``bayes-emt compare`` runs by default is therefore not this from-the-prior run but the same
 sampler with the prior repartitioned onto the emcee draws (:mod:`.repartition`; same log Z, an
-information of 2–14 nats instead of 47–134): there all three 15-D problems and the NL models
+information of 1.6–14 nats instead of 47–134): there all three 15-D problems and the NL models
 pass with these defaults (bundled NL(5): 28028.28 ± 0.24 nats against bridge sampling's 28028.33,
 68 000 evaluations in 9 s). The from-the-prior run stays for ``--nested-prior prior``: it does not
 depend on the chain, and it is what can find a mode the chain missed.
