@@ -69,6 +69,11 @@ def _by_method(cmp) -> dict:
     return {m.name: {k: v.get("log_evidence") for k, v in m.by_method.items()} for m in cmp.models}
 
 
+def _lower_bounds(cmp) -> dict:
+    """``{model: evidence lower bound [nats]}`` of a comparison."""
+    return {m.name: m.lower_bound.get("log_evidence") for m in cmp.models}
+
+
 def _success(generator: str, models) -> tuple[bool, str]:
     """Generating model best, or within 1 nat of a winner with no more parameters."""
     best = max(models, key=lambda m: m.log_evidence)
@@ -144,7 +149,7 @@ def run_rings(args) -> int:
             data[key] = {"rings": n, "seed": seed, "truth": "uniform rings" if uniform else "paper Table 5",
                          **{k: choice[k] for k in _RING_KEYS},
                          "by_method": _by_method(cmp),
-                         "lower_bound": {m.name: m.lower_bound.get("log_evidence") for m in cmp.models},
+                         "lower_bound": _lower_bounds(cmp),
                          "warnings": cmp.all_warnings()}
             _save(out, data)
             print(f"{key}: evidence n = {choice['by_evidence']}, Hankel n = {choice['hankel']}", flush=True)
@@ -166,7 +171,7 @@ def run_realdata(args) -> int:
                              settings=_settings(args))
         choice = ring_choice(meas, cmp.models)
     res = {"file": args.file, **{k: choice[k] for k in _RING_KEYS}, "by_method": _by_method(cmp),
-           "lower_bound": {m.name: m.lower_bound.get("log_evidence") for m in cmp.models},
+           "lower_bound": _lower_bounds(cmp),
            "warnings": cmp.all_warnings()}
     data = _load(Path(args.json))
     data[f"realdata/{args.file}"] = res

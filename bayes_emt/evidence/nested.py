@@ -234,11 +234,15 @@ def read_nested(path: str | Path) -> NestedRun:
                      s["converged"], s["seed"], s["settings"], s["wall_time_s"], s["message"])
 
 
+def target_identity(target) -> dict:
+    """What a checkpoint of ``target`` must match: its ``identity()``, else its names and priors."""
+    if hasattr(target, "identity"):
+        return target.identity()
+    return {"names": list(target.params.names), "priors": target.params.to_dict()}
+
+
 def _identity(target, seed: int, settings: NestedSettings) -> dict:
-    ident = target.identity() if hasattr(target, "identity") else {
-        "names": list(target.params.names),
-        "priors": target.params.to_dict()}
-    return {**ident, "seed": int(seed), "nested": asdict(settings)}
+    return {**target_identity(target), "seed": int(seed), "nested": asdict(settings)}
 
 
 def run_nested(target, *, seed: int = 0, settings: NestedSettings = NestedSettings(),

@@ -47,6 +47,7 @@ import numpy as np
 from scipy import linalg, special, stats
 
 from ..params import ParamSet
+from .nested import target_identity
 from .warp import Warp
 
 __all__ = ["Repartition", "RepartitionedTarget"]
@@ -153,6 +154,4 @@ class RepartitionedTarget:
         return np.where(np.isfinite(out), out, -np.inf).reshape(lead)
 
     def identity(self) -> dict:
-        base = self.base.identity() if hasattr(self.base, "identity") else {
-            "names": list(self.params.names), "priors": self.params.to_dict()}
-        return {**base, "repartition_sha256": self.repartition.sha256()}
+        return {**target_identity(self.base), "repartition_sha256": self.repartition.sha256()}
