@@ -31,6 +31,7 @@ from ..errors import FitError
 from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import Model
+from ..models.residual import rms_relative_residual
 from ..params import ParamSet, default_spec
 
 __all__ = ["physical_from_two_fits", "mechanics_from_physical", "fit_added_mass", "JointModel",
@@ -327,8 +328,7 @@ def fit_added_mass(base: Measurement, loaded: Measurement, delta_m: float, model
     F = max(chi2_joint - chi2_s, 0.0) / q / (chi2_s / dof) if chi2_s > 0 else float("nan")
     consistency = {"F": float(F), "dof": [q, dof], "p_value": float(stats.f.sf(F, q, dof)),
                    "chi2_joint": chi2_joint, "chi2_separate": chi2_s}
-    rms = [float(np.sqrt(np.mean(np.abs(model.admittance(ms.omega, t) - ms.Y) ** 2 / np.abs(ms.Y) ** 2)))
-           for ms, t in ((base, tb), (loaded, tl))]
+    rms = [rms_relative_residual(model, t, ms) for ms, t in ((base, tb), (loaded, tl))]
     return AddedMassResult(
         model=model, delta_m=float(delta_m), values=dict(zip(jm.names, map(float, x), strict=True)),
         stderr=dict(zip(jm.names, map(float, se), strict=True)), cov_z=cov,

@@ -33,6 +33,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from .._atomic import atomic_write_text
+from ..models.derived import derived_values
 from .inputs import BatchInput, file_sha256
 
 __all__ = ["JOBS", "MARKER", "ERROR_FILE", "BatchSettings", "FileOutcome", "process_file", "is_finished",
@@ -175,7 +176,7 @@ def _summary(meas, fit, post=None) -> dict:
         if name in p:
             out[key] = float(p[name])
     if "omega0" in p:
-        out["f0_hz"] = float(p["omega0"]) / (2 * 3.141592653589793)
+        out["f0_hz"] = derived_values(fit.model, fit.theta)["fs"]
     if post is not None:
         rows = post.summary_rows()
         out.update({"converged": bool(post.converged), "steps": int(post.n_steps),

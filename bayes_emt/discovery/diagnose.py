@@ -24,6 +24,7 @@ from ..estimation.results import FitResult
 from ..evidence.scale import verbal
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
+from ..models.derived import derived_values
 from .candidates import candidate_physics
 from .evidence import evidence
 from .locate import ALPHA, Band, Location, locate_mismatch
@@ -166,10 +167,11 @@ def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES) -> tuple[
 def _mechanics(fit: FitResult) -> dict:
     p = fit.parameters
     out = {k: p[k] for k in ("R0", "zeta", "omega0", "phi") if k in p}
+    d = derived_values(fit.model, fit.theta)
     if "omega0" in p:
-        out["fs_hz"] = p["omega0"] / (2 * math.pi)
+        out["fs_hz"] = d["fs"]
     if "zeta" in p:
-        out["Qms"] = 1.0 / (2.0 * p["zeta"])
+        out["Qms"] = d["Qms"]
     return out
 
 

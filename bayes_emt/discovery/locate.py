@@ -30,6 +30,7 @@ from scipy import stats
 
 from ..measurement import Measurement
 from ..models import Model
+from ..models.residual import relative_residual
 
 __all__ = [
     "Band",
@@ -223,7 +224,7 @@ def locate_mismatch(
             f"{meas.source}: {meas.n_points} points are too few to locate a mismatch (need {4 * _MIN_WINDOW})"
         )
     with np.errstate(all="ignore"):
-        rel = (model.admittance(meas.omega, np.asarray(theta, float)) - meas.Y) / np.abs(meas.Y)
+        rel = relative_residual(model, theta, meas)
     parts = np.stack([rel.real, rel.imag])
     sig = float(np.sqrt(np.mean(noise_scale(parts) ** 2)))
     sig = max(sig, 1e-12)

@@ -48,6 +48,7 @@ from ..evidence.scale import verbal
 from ..inference.likelihood import Likelihood
 from ..measurement import Measurement
 from ..models import Model, make_term
+from ..models.residual import relative_residual, rms_relative_residual
 from .candidates import escalations
 from .evidence import Evidence, evidence
 from .locate import Band, scan_statistics
@@ -137,12 +138,7 @@ def max_log_likelihood(meas: Measurement, fit: FitResult) -> float:
     leads, the fallback's log Z, an importance-sampling estimate that overstates by ``a`` nats with
     probability at most ``e^-a``, lies 1189 nats above it); ``Δ log Z`` is then approximate."""
     lik = Likelihood(fit.model, meas)
-    rel = float(
-        np.sqrt(
-            np.mean(np.abs(fit.model.admittance(meas.omega, fit.theta) - meas.Y) ** 2 / np.abs(meas.Y) ** 2)
-            / 2
-        )
-    )
+    rel = rms_relative_residual(fit.model, fit.theta, meas) / math.sqrt(2)
     ymin = float(np.min(np.abs(meas.Y)))
 
     def nll(x):
@@ -169,7 +165,7 @@ def band_chi2(meas: Measurement, model: Model, theta, band: Band, sigma_rel: flo
     """χ² of the band: Σ over its points of ``|Y(θ) − Y|²/(σ |Y|)²`` (both parts)."""
     sl = slice(band.i_lo, band.i_hi + 1)
     with np.errstate(all="ignore"):
-        d = (model.bind(meas.omega).admittance(meas.omega, theta) - meas.Y)[sl] / np.abs(meas.Y[sl])
+        d = relative_residual(model, theta, meas)[sl]
     v = float(np.sum(np.abs(d) ** 2) / sigma_rel**2)
     return v if math.isfinite(v) else float("inf")
 
@@ -177,7 +173,7 @@ def band_chi2(meas: Measurement, model: Model, theta, band: Band, sigma_rel: flo
 def band_scan(meas: Measurement, model: Model, theta, band: Band, sigma_rel: float) -> float:
     """Largest scan statistic of the windows lying inside ``band`` (both parts)."""
     with np.errstate(all="ignore"):
-        rel = (model.bind(meas.omega).admittance(meas.omega, theta) - meas.Y) / np.abs(meas.Y)
+        rel = relative_residual(model, theta, meas)
     r = np.stack([rel.real, rel.imag]) / sigma_rel
     best = 0.0
     for L, starts, T in scan_statistics(r):

@@ -81,6 +81,7 @@ import numpy as np
 
 from ..measurement import Measurement
 from ..models import Model
+from ..models.residual import relative_residual
 
 __all__ = ["ResidualStructure", "residual_structure", "assess_fit", "RHO_CRIT", "Z_CRIT", "AT_BOUND_FRAC",
            "Q_RANGE", "NOISE_FLOOR"]
@@ -282,7 +283,7 @@ def assess_fit(model: Model, meas: Measurement, theta: np.ndarray, *, z: np.ndar
     info = info or {}
     theta = np.asarray(theta, float)
     out = []
-    e = (model.admittance(meas.omega, theta) - meas.Y) / np.abs(meas.Y)
+    e = relative_residual(model, theta, meas)
     if meas.weights is not None:
         e = e * meas.weights
     rs = residual_structure(e) if meas.n_points >= _MIN_POINTS else None

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..measurement import Measurement
 from ..models import Model, StartContext, Term
+from ..models.residual import rms_relative_residual
 from .checks import locate_resonance
 
 __all__ = ["augmentation_starts", "validated", "rms_rel_residual"]
@@ -38,8 +39,7 @@ def validated(model: Model, theta) -> np.ndarray | None:
 def rms_rel_residual(model: Model, meas: Measurement, thetas) -> np.ndarray:
     """rms relative residual ``sqrt(mean |Y(θ) − Y|²/|Y|²)`` of each row of ``thetas`` (non-finite → inf)."""
     with np.errstate(all="ignore"):
-        d = model.admittance(meas.omega, thetas) - meas.Y
-        err = np.sqrt(np.mean(np.abs(d) ** 2 / np.abs(meas.Y) ** 2, axis=-1))
+        err = rms_relative_residual(model, thetas, meas)
     return np.where(np.isfinite(err), err, np.inf)
 
 

@@ -44,6 +44,7 @@ from scipy import optimize
 from ..errors import FitError
 from ..measurement import Measurement
 from ..models import Model
+from ..models.residual import relative_residual
 from .adequacy import assess_fit
 from .augment import augmentation_starts
 from .checks import check_fit_inputs
@@ -58,8 +59,9 @@ _FWD_STEP = 1e-7  # forward-difference step (≈ sqrt of machine epsilon)
 
 
 def relative_residuals(model: Model, meas: Measurement, theta) -> np.ndarray:
-    """Complex ``(Y_model − Y_meas)/|Y_meas|`` per frequency (dimensionless)."""
-    return (model.admittance(meas.omega, theta) - meas.Y) / np.abs(meas.Y)
+    """Complex ``(Y_model − Y_meas)/|Y_meas|`` per frequency (dimensionless;
+    :func:`bayes_emt.models.residual.relative_residual`)."""
+    return relative_residual(model, theta, meas)
 
 
 def central_jacobian(fun_batch, z, step: float = _FD_STEP):

@@ -58,6 +58,7 @@ from ..errors import IdentifiabilityWarning
 from ..measurement import Measurement
 from ..models import DEFAULT_N_TURNS, Model, build_model
 from ..models.rational import foster_form as _foster
+from ..models.residual import relative_residual
 from .results import FitResult
 
 __all__ = ["hankel_singular_values", "gramian_hsv", "blocked_state_space", "fold_out_of_band",
@@ -223,7 +224,7 @@ def noise_level(meas: Measurement, fit: FitResult) -> float:
     conservative).
     """
     Yfit = fit.model.admittance(meas.omega, fit.theta)
-    rel = (Yfit - meas.Y) / np.abs(meas.Y)
+    rel = relative_residual(fit.model, fit.theta, meas)
     s = float(np.sqrt(np.sum(np.abs(rel) ** 2) / max(2 * meas.n_points - fit.model.ndim, 1)))
     return s * float(np.min(np.abs(Yfit)))
 

@@ -35,6 +35,7 @@ import numpy as np
 
 from .._atomic import atomic_path
 from ..models import Model
+from ..models.derived import DERIVED
 from ..params import ParamSet
 from .likelihood import Likelihood
 
@@ -42,18 +43,6 @@ __all__ = ["Posterior", "DERIVED", "read_posterior", "posterior_from_datatree", 
            "stored_model", "stored_param_set", "stored_record"]
 
 _LOG_LIK_CHUNK = 64  # draws per vectorised pointwise-likelihood call (memory: chunk × F × terms)
-
-
-def _coil_inductance_lf(model: Model, theta: np.ndarray) -> np.ndarray:
-    """``lim_{ω→0} Im Zc(jω)/ω`` [H], evaluated at ω = 1e-6 rad/s (Zc = jωL + O(ω²) there)."""
-    w = 1e-6
-    return model.coil_impedance(np.array([w]), theta)[..., 0].imag / w
-
-
-#: Derived quantities per draw: name → (unit, description, f(model, theta (..., k_model)) → (...)).
-DERIVED: dict[str, tuple[str, str, Callable[[Model, np.ndarray], np.ndarray]]] = {
-    "L_lf": ("H", "low-frequency coil inductance, lim Im Zc(jw)/w as w -> 0", _coil_inductance_lf),
-}
 
 
 def _versions() -> dict:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..models.residual import relative_residual
 from . import figure_axes
 
 __all__ = ["plot_residuals", "plot_bode_overlay"]
@@ -38,9 +39,8 @@ def plot_residuals(diagnosis, meas, ax=None):
         (diagnosis.baseline_fit, f"start: {diagnosis.baseline_model}", "tab:gray"),
         (diagnosis.final_fit, f"final: {diagnosis.final_model}", "tab:blue"),
     ):
-        m = fit.model.bind(meas.omega)
         with np.errstate(all="ignore"):
-            r = (m.admittance(meas.omega, fit.theta) - meas.Y) / np.abs(meas.Y)
+            r = relative_residual(fit.model, fit.theta, meas)
         ax[0].plot(f, 100 * r.real, lw=0.8, color=color, label=label)
         ax[1].plot(f, 100 * r.imag, lw=0.8, color=color, label=label)
     for a, part in zip(ax, ("real", "imaginary"), strict=True):
