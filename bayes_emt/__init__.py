@@ -4,7 +4,21 @@ Public API: the verbs of :mod:`bayes_emt.api` and the types they return. Plottin
 :mod:`bayes_emt.plotting` and is never imported here.
 """
 
-from .api import as_model, design_shunt, fit, read, read_posterior, sample
+from .api import (
+    as_measurement,
+    as_model,
+    compare,
+    design_shunt,
+    diagnose,
+    fit,
+    load,
+    load_concealed_bench,
+    load_paper_bench,
+    read,
+    read_posterior,
+    sample,
+)
+from .discovery.diagnose import Diagnosis
 from .errors import (
     BayesEMTError,
     ConvergenceWarning,
@@ -13,6 +27,7 @@ from .errors import (
     IdentifiabilityWarning,
 )
 from .estimation.results import FitResult
+from .evidence.records import Comparison
 from .inference.posterior import Posterior
 from .io.simulate import log_omega_grid, simulate
 from .measurement import Measurement
@@ -23,8 +38,9 @@ from .shunt import ShuntDesign
 __version__ = "0.1.0"
 
 __all__ = [
-    "read", "fit", "sample", "design_shunt", "read_posterior", "as_model",
-    "Measurement", "FitResult", "Posterior", "ShuntDesign",
+    "read", "fit", "sample", "compare", "design_shunt", "diagnose", "read_posterior", "load",
+    "as_model", "as_measurement", "load_paper_bench", "load_concealed_bench",
+    "Measurement", "FitResult", "Posterior", "Comparison", "Diagnosis", "ShuntDesign",
     "BayesEMTError", "ConvergenceWarning", "DataFormatError", "FitError", "IdentifiabilityWarning",
     "MODEL_NAMES", "Model", "build_model",
     "LogNormal", "LogUniform", "Normal", "ParamSet", "ParamSpec", "Uniform",

@@ -16,6 +16,7 @@ from __future__ import annotations
 import html
 import json
 import math
+import textwrap
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -62,20 +63,34 @@ def _cells(row: Sequence) -> list[str]:
     return [c if isinstance(c, str) else fmt(c) for c in row]
 
 
+#: width of a text summary [characters]; a last column that would pass it is wrapped
+WIDTH = 110
+
+
 def render_text(tables: Iterable[Table]) -> str:
-    """Plain-text rendering, columns aligned (numbers right, text left)."""
+    """Plain-text rendering, columns aligned (numbers right, text and units left), a long last
+    column (a message) wrapped at :data:`WIDTH`."""
     out: list[str] = []
     for t in tables:
         out.append(t.title)
         if t.columns:
             rows = [_cells(r) for r in t.rows]
             widths = [max([len(c)] + [len(r[i]) for r in rows]) for i, c in enumerate(t.columns)]
+            room = WIDTH - 2 - sum(w + 2 for w in widths[:-1])
+            if widths[-1] > room >= 30:
+                widths[-1] = room
+            left = ["unit" in c.lower() for c in t.columns]
             out.append("  " + "  ".join(c.ljust(w) for c, w in zip(t.columns, widths, strict=True)).rstrip())
             out.append("  " + "  ".join("-" * w for w in widths))
             for r in rows:
-                cells = [(c.rjust(w) if _numeric(c) else c.ljust(w)) for c, w in zip(r, widths, strict=True)]
-                out.append("  " + "  ".join(cells).rstrip())
-        out += [f"  {n}" for n in t.notes]
+                last = textwrap.wrap(r[-1], widths[-1]) or [""]
+                cells = [(c.rjust(w) if _numeric(c) and not lf else c.ljust(w))
+                         for c, w, lf in zip(r[:-1], widths[:-1], left[:-1], strict=True)]
+                out.append("  " + "  ".join([*cells, last[0]]).rstrip())
+                pad = "  " + "".join(" " * (w + 2) for w in widths[:-1])
+                out += [pad + more for more in last[1:]]
+        for n in t.notes:
+            out += textwrap.wrap(n, WIDTH, initial_indent="  ", subsequent_indent="    ")
         out.append("")
     return "\n".join(out).rstrip() + "\n"
 

@@ -1,32 +1,65 @@
-"""The public verbs: read a measurement, fit a model, sample its posterior, design a shunt, and
-read back any saved posterior. Each is a thin, documented entry to the layer that does the work::
+"""The public verbs: the front door. Each takes what a user holds (a path or a
+:class:`~bayes_emt.measurement.Measurement`, model spec strings, fits, posteriors) and returns a
+frozen result with ``.summary()`` (a table with units), a notebook display, ``.save()`` and a
+reader back (:func:`load`)::
 
     import bayes_emt as be
-    meas = be.read("speaker.zma")
-    fit = be.fit(meas, "UD")
-    post = be.sample(meas, "UD", fit=fit, seed=1)
-    design = be.design_shunt(fit)
+    meas = be.load_paper_bench()                        # or be.read("speaker.zma")
+    fit = be.fit(meas, "UD")                            # automatic start, two-step least squares
+    post = be.sample(meas, fit=fit, seed=1)             # emcee posterior seeded by the fit
+    cmp = be.compare(meas, ["UD", "NL(5)"], seed=1)     # log Z by bridge and nested sampling
+    shunt = be.robust_shunt(post, seed=1)               # RC shunt over the posterior's draws
+    diag = be.diagnose(meas, fit=fit, seed=1)           # what the model leaves out, named
+
+Everything numerical lives in the layers below; a verb converts its inputs, calls one of them and
+returns its record.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
+from ._record import read_record
+from .discovery.diagnose import Diagnosis
+from .discovery.diagnose import diagnose as _diagnose
 from .estimation.fitting import fit_admittance
 from .estimation.results import FitResult
+from .evidence.compare import CompareSettings, compare_models
+from .evidence.nested import NestedSettings
+from .evidence.records import Comparison
 from .inference.posterior import Posterior, posterior_from_datatree
-from .inference.sampling import sample_posterior
+from .inference.sampling import SamplerSettings, sample_posterior
 from .io import read_measurement
+from .io.datasets import load_concealed_bench, load_paper_bench
 from .measurement import Measurement
 from .models import Model, build_model
 from .shunt import ShuntDesign, design_rc_shunt
 
-__all__ = ["read", "fit", "sample", "design_shunt", "read_posterior", "as_model"]
+__all__ = ["read", "fit", "sample", "compare", "design_shunt", "diagnose", "read_posterior", "load",
+           "as_model", "as_measurement", "load_paper_bench", "load_concealed_bench"]
 
 
-def as_model(model: Model | str, *, rings: int | None = None) -> Model:
-    """A :class:`~bayes_emt.models.Model` from a model or its name (``rings`` for NL/UL)."""
-    return model if isinstance(model, Model) else build_model(model, rings=rings)
+def as_model(model: Model | str | FitResult, *, rings: int | None = None) -> Model:
+    """A :class:`~bayes_emt.models.Model` from a model, a spec string (``"UD"``, ``"NL(5)"``,
+    ``"UD+suspension_creep"``; ``rings`` for a bare ``"NL"``/``"UL"``) or a fit (its model)."""
+    if isinstance(model, FitResult):
+        return model.model
+    if isinstance(model, Model):
+        return model
+    if not isinstance(model, str):
+        raise TypeError(f"a model is a spec string such as 'UD' or 'NL(5)', a Model or a fit, not "
+                        f"{type(model).__name__}")
+    return build_model(model, rings=rings)
+
+
+def as_measurement(data: Measurement | str | Path, **options) -> Measurement:
+    """A measurement from itself or from a file path (:func:`read`)."""
+    if isinstance(data, Measurement):
+        if options:
+            raise TypeError(f"reading options {sorted(options)} apply to a file path, not a Measurement")
+        return data
+    return read(data, **options)
 
 
 def read(path: str | Path, **options) -> Measurement:
@@ -35,15 +68,60 @@ def read(path: str | Path, **options) -> Measurement:
     return read_measurement(path, **options)
 
 
-def fit(meas: Measurement, model: Model | str, *, rings: int | None = None, **options) -> FitResult:
-    """Automatic initial estimate + two-step least squares
-    (:func:`~bayes_emt.estimation.fitting.fit_admittance`)."""
-    return fit_admittance(meas, as_model(model, rings=rings), **options)
+def fit(meas: Measurement | str | Path, model: Model | str = "UD", *, rings: int | None = None,
+        **options) -> FitResult:
+    """Automatic initial estimate + two-step least squares of ``model`` (a spec string or Model)
+    to ``meas`` (:func:`~bayes_emt.estimation.fitting.fit_admittance` for ``options``)."""
+    return fit_admittance(as_measurement(meas), as_model(model, rings=rings), **options)
 
 
-def sample(meas: Measurement, model: Model | str, *, rings: int | None = None, **options) -> Posterior:
-    """The posterior by emcee (:func:`~bayes_emt.inference.sampling.sample_posterior`)."""
-    return sample_posterior(meas, as_model(model, rings=rings), **options)
+def sample(meas: Measurement | str | Path, model: Model | str | None = None, *, fit: FitResult | None = None,
+           rings: int | None = None, seed: int = 0, **options) -> Posterior:
+    """The posterior of ``model`` (default: ``fit``'s model) by emcee, started from ``fit`` (fitted
+    here when not given); :func:`~bayes_emt.inference.sampling.sample_posterior` for ``options``
+    (``max_steps``, ``checkpoint``, ``resume``, ``likelihood``, ``settings``, ...)."""
+    if model is None and fit is None:
+        raise TypeError("sample: give a model spec (e.g. 'UD') or a fit")
+    m = fit.model if model is None else as_model(model, rings=rings)
+    if fit is not None and fit.model.spec != m.spec:
+        raise ValueError(f"sample: the fit is of {fit.model.label}, the model asked for is {m.label}")
+    return sample_posterior(as_measurement(meas), m, fit=fit, seed=seed, **options)
+
+
+def compare(meas: Measurement | str | Path, models: Sequence[str | Model] = ("I", "II", "III", "UD", "NL(5)"),
+            *, seed: int = 0, methods: Sequence[str] = ("laplace", "bridge", "nested"),
+            max_steps: int | None = None, nested_prior: str = "posterior", nested_live: int | None = None,
+            loo: bool = True, results: str | Path | None = None, workdir: str | Path | None = None,
+            progress: bool = False) -> Comparison:
+    """Evidence of each model (spec strings or Models): log Z by bridge sampling on its emcee
+    posterior and by nested sampling (its prior repartitioned onto those draws), Laplace beside,
+    Bayes factors on Kass & Raftery's scale, PSIS-LOO and prior sensitivity
+    (:func:`~bayes_emt.evidence.compare.compare_models`). ``results``: a JSON file written after
+    every model (a re-run with the same file resumes)."""
+    meas = as_measurement(meas)
+    if isinstance(models, str | Model):
+        models = [models]
+    specs = [(m if isinstance(m, str) else m.label, as_model(m)) for m in models]
+    labels = [m.label for _, m in specs]
+    if len(set(labels)) != len(labels):
+        raise ValueError(f"compare: each model once, got {', '.join(labels)}")
+    sampler = SamplerSettings() if max_steps is None else SamplerSettings(max_steps=int(max_steps))
+    nested = NestedSettings() if nested_live is None else NestedSettings(n_live=int(nested_live))
+    settings = CompareSettings(seed=seed, methods=tuple(methods), sampler=sampler, nested=nested,
+                               nested_prior=nested_prior, loo=loo)
+    return compare_models(meas, specs, settings=settings, results=results, workdir=workdir, progress=progress)
+
+
+def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *,
+             fit: FitResult | None = None, seed: int = 0, max_rounds: int = 4,
+             time_budget: float | None = 240.0, progress=None) -> Diagnosis:
+    """Locate where ``model`` (or ``fit``'s model, reusing that fit; neither: the base model the
+    evidence prefers) and ``meas`` differ beyond the noise, name the catalogue physics that
+    explains each band, and add it (:func:`~bayes_emt.discovery.diagnose.diagnose`).
+    ``time_budget`` [CPU s] stops trying further candidates (``None``: no limit)."""
+    m = None if model is None else as_model(model)
+    return _diagnose(as_measurement(meas), m, fit=fit, seed=seed, max_rounds=max_rounds,
+                     time_budget=time_budget, progress=progress)
 
 
 def design_shunt(fit_or_model: FitResult | Model, theta=None, **options) -> ShuntDesign:
@@ -64,3 +142,12 @@ def read_posterior(path: str | Path):
 
         return read_added_mass_posterior(dt)
     return posterior_from_datatree(dt, where=str(path))
+
+
+def load(path: str | Path):
+    """Any saved result: a posterior (netCDF) or a JSON record written by a result's ``.save()`` or
+    a command's ``--json`` (a fit, a comparison, a diagnosis, a shunt design), by its ``kind``."""
+    p = Path(path)
+    if p.suffix.lower() in (".nc", ".nc4", ".netcdf"):
+        return read_posterior(p)
+    return read_record(p)

@@ -273,12 +273,12 @@ def run_forced_band_nulls(out: Path, n: int) -> dict:
     recordings (as :func:`run_nulls`), every candidate physics is fitted to a band forced over the
     whole record and ranked; counted are candidates with ``Δ log Z ≥`` the acceptance threshold
     and accepted ones, per evidence method (the Laplace screen, or the fallback of
-    :mod:`bayes_emt.discovery.evidence`). Resumes from ``forced_band_nulls.json``."""
+    :mod:`bayes_emt.evidence.fit_evidence`). Resumes from ``forced_band_nulls.json``."""
     from bayes_emt.discovery.candidates import candidate_physics
-    from bayes_emt.discovery.evidence import evidence
     from bayes_emt.discovery.locate import Band
     from bayes_emt.discovery.name import MIN_DELTA_LOG_Z, rank_candidates
     from bayes_emt.estimation.fitting import fit_admittance
+    from bayes_emt.evidence.fit_evidence import fit_log_evidence as evidence
 
     path = out / "forced_band_nulls.json"
 

@@ -9,10 +9,11 @@ import math
 import numpy as np
 import pytest
 
-from bayes_emt.discovery.evidence import evidence, slice_log_integral, subspace_laplace
 from bayes_emt.discovery.locate import Band
 from bayes_emt.discovery.name import MIN_DELTA_LOG_Z, rank_candidates
 from bayes_emt.estimation.fitting import fit_admittance
+from bayes_emt.evidence.fit_evidence import fit_log_evidence as evidence
+from bayes_emt.evidence.fit_evidence import slice_log_integral, subspace_laplace
 from bayes_emt.evidence.warp import Warp
 from bayes_emt.io.simulate import simulate
 from bayes_emt.models import parse_model_spec

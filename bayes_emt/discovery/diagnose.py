@@ -11,22 +11,24 @@ frozen :class:`Diagnosis` whose :meth:`~Diagnosis.to_json_dict` is the ``diagnos
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._record import Record, Table
 from ..errors import FitError
 from ..estimation.checks import locate_resonance
 from ..estimation.fitting import fit_admittance
 from ..estimation.results import FitResult
+from ..evidence.fit_evidence import fit_log_evidence
 from ..evidence.scale import verbal
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from ..models.derived import derived_values
 from .candidates import candidate_physics
-from .evidence import evidence
 from .locate import ALPHA, Band, Location, locate_mismatch
 from .name import Candidate, log_evidence, max_log_likelihood, rank_candidates
 from .shape import describe_shape, residual_shape
@@ -76,11 +78,37 @@ class Finding:
             "identifiable": self.identifiable,
             "parameters": self.parameters,
             "explanation": self.explanation,
+            "band": dataclasses.asdict(self.band),
+            "identifiability": self.identifiability,
+            "device": self.device,
+            "model_spec": self.model_spec,
+            "evidence_method": self.evidence_method,
+            "evidence_note": self.evidence_note,
         }
 
+    @classmethod
+    def from_json_dict(cls, d) -> Finding:
+        b = dict(d["band"])
+        band = Band(**{**b, "parts": tuple(b.get("parts", ()))})
+        return cls(
+            d["physics"],
+            band,
+            float(d["delta_log_evidence"]),
+            float(d["chi2_band_before"]),
+            float(d["chi2_band_after"]),
+            bool(d["identifiable"]),
+            d.get("identifiability", ""),
+            bool(d.get("device", True)),
+            dict(d.get("parameters") or {}),
+            d.get("model_spec", ""),
+            d.get("explanation", ""),
+            d.get("evidence_method", "laplace"),
+            d.get("evidence_note", ""),
+        )
 
-@dataclass(frozen=True)
-class Diagnosis:
+
+@dataclass(frozen=True, repr=False)
+class Diagnosis(Record):
     """What :func:`diagnose` found.
 
     Attributes
@@ -108,6 +136,8 @@ class Diagnosis:
     final_location: Location | None = field(default=None, compare=False)
     baseline_location: Location | None = field(default=None, compare=False)
 
+    kind = "diagnosis"
+
     @property
     def baseline_model(self) -> str:
         return self.baseline_fit.model.label
@@ -130,7 +160,116 @@ class Diagnosis:
                 {"band_rad_s": u["band_rad_s"], "description": u["description"]} for u in self.unexplained
             ],
             "warnings": list(self.warnings),
+            "source": self.source,
+            "seconds": self.seconds,
+            "baseline_fit": self.baseline_fit.to_json_dict(),
+            "final_fit": self.final_fit.to_json_dict(),
+            "unexplained_detail": list(self.unexplained),
+            "locations": list(self.locations),
+            "tried": list(self.tried),
         }
+
+    @classmethod
+    def from_json_dict(cls, d) -> Diagnosis:
+        """The diagnosis a :meth:`to_json_dict` record (``diagnose --json``, :meth:`save`) holds."""
+        return cls(
+            d.get("source", ""),
+            FitResult.from_json_dict(d["baseline_fit"]),
+            FitResult.from_json_dict(d["final_fit"]),
+            tuple(Finding.from_json_dict(f) for f in d.get("findings", ())),
+            tuple(d.get("unexplained_detail", d.get("unexplained", ()))),
+            tuple(d.get("locations", ())),
+            tuple(d.get("tried", ())),
+            tuple(d.get("warnings", ())),
+            float(d.get("seconds", 0.0)),
+        )
+
+    # ---- what a person reads -------------------------------------------------------------------
+    def headline(self) -> str:
+        names = ", ".join(f.physics for f in self.findings) or "nothing"
+        return (
+            f"{self.baseline_model} -> {self.final_model}: found {names}; rms relative residual "
+            f"{100 * self.baseline_fit.rms_rel_residual:.3g} -> {100 * self.final_fit.rms_rel_residual:.3g} %"
+        )
+
+    def tables(self) -> list[Table]:
+        rows = tuple(
+            (
+                f.physics,
+                f.band.lo / (2 * math.pi),
+                f.band.hi / (2 * math.pi),
+                f.delta_log_evidence,
+                f.chi2_band_before,
+                f.chi2_band_after,
+                "yes" if f.identifiable else "no",
+                f.model_spec,
+            )
+            for f in self.findings
+        )
+        notes = (
+            f"rms relative residual {100 * self.baseline_fit.rms_rel_residual:.4g} % ({self.baseline_model})"
+            f" -> {100 * self.final_fit.rms_rel_residual:.4g} % ({self.final_model}); {self.seconds:.0f} s",
+        )
+        out = [
+            Table(
+                f"{self.source}: discrepancy diagnosis",
+                (
+                    "physics",
+                    "band from [Hz]",
+                    "to [Hz]",
+                    "delta log Z [nats]",
+                    "band chi2 before",
+                    "after",
+                    "determined",
+                    "model after",
+                ),
+                rows,
+                notes,
+            )
+        ]
+        moved = moved_parameters(self.baseline_fit, self.final_fit)
+        if moved:
+            units = {
+                "R0": "ohm",
+                "zeta": "1",
+                "omega0": "rad/s",
+                "phi": "N/(A kg^0.5)",
+                "fs_hz": "Hz",
+                "Qms": "1",
+            }
+            out.append(
+                Table(
+                    "plant parameters, start -> final",
+                    ("parameter", "start", "final", "change [%]", "unit"),
+                    tuple(
+                        (
+                            k,
+                            v["before"],
+                            v["after"],
+                            None if v["relative_change"] is None else 100 * v["relative_change"],
+                            units.get(k, ""),
+                        )
+                        for k, v in moved.items()
+                    ),
+                )
+            )
+        if self.unexplained:
+            out.append(
+                Table(
+                    "unexplained bands",
+                    ("band", "description"),
+                    tuple(
+                        (
+                            " - ".join(f"{b / (2 * math.pi):.4g}" for b in u["band_rad_s"]) + " Hz",
+                            u.get("description", ""),
+                        )
+                        for u in self.unexplained
+                    ),
+                )
+            )
+        if self.warnings:
+            out.append(Table("warnings", ("message",), tuple((w,) for w in self.warnings)))
+        return out
 
     def details(self) -> dict:
         """Everything behind the verdict (rounds, candidates, shapes, timings) for reports."""
@@ -192,11 +331,13 @@ def r0_move_warning(before: FitResult, after: FitResult, limit: float = R0_MOVE_
     d = moved_parameters(before, after).get("R0")
     if d is None or d["relative_change"] is None or abs(d["relative_change"]) <= limit:
         return None
-    return (f"R0 moved {100 * d['relative_change']:+.1f} % ({d['before']:.4g} -> {d['after']:.4g} ohm) from "
-            f"the baseline {before.model.label} to the final {after.model.label}: these data do not pin the "
-            "DC resistance apart from the added physics; measure it with an ohmmeter and give it as an R0 "
-            "prior (`fit`/`sample --priors`) before trusting R0-sensitive results (a negative-resistance "
-            "shunt cancels most of R0)")
+    return (
+        f"R0 moved {100 * d['relative_change']:+.1f} % ({d['before']:.4g} -> {d['after']:.4g} ohm) from "
+        f"the baseline {before.model.label} to the final {after.model.label}: these data do not pin the "
+        "DC resistance apart from the added physics; measure it with an ohmmeter and give it as an R0 "
+        "prior (`fit`/`sample --priors`) before trusting R0-sensitive results (a negative-resistance "
+        "shunt cancels most of R0)"
+    )
 
 
 def _fmt(v: float, unit: str) -> str:
@@ -228,8 +369,11 @@ def _explain(c: Candidate, band: Band, model: Model, moved: dict) -> str:
         and d["relative_change"] is not None
         and abs(d["relative_change"]) > 0.005
     )
-    holds = ("improves the fit and is determined by the data" if c.identifiable
-             else "improves the fit but is not determined by the data: " + c.identifiability)
+    holds = (
+        "improves the fit and is determined by the data"
+        if c.identifiable
+        else "improves the fit but is not determined by the data: " + c.identifiability
+    )
     parts = "/".join(band.parts)
     return (
         f"{head} explains the mismatch in the {parts} part(s) between {lo:.4g} and {hi:.4g} Hz; "
@@ -243,6 +387,7 @@ def diagnose(
     meas: Measurement,
     model: Model | None = None,
     *,
+    fit: FitResult | None = None,
     max_rounds: int = 4,
     alpha: float = ALPHA,
     seed: int = 0,
@@ -254,8 +399,9 @@ def diagnose(
     Parameters
     ----------
     meas : the measurement.
-    model : the starting model; ``None``: the base model the evidence prefers
-        (:func:`preferred_base_model`).
+    model : the starting model; ``None``: ``fit``'s model, or without a fit the base model the
+        evidence prefers (:func:`preferred_base_model`).
+    fit : a least-squares fit of the starting model to ``meas`` to start from (it is not redone).
     max_rounds : at most this many accepted findings.
     alpha : the scan's family-wise false-alarm probability per round.
     seed : seeds the scan's calibration replicates.
@@ -268,6 +414,14 @@ def diagnose(
     deadline = None if time_budget is None else time.process_time() + time_budget
     say = progress or (lambda msg: None)
     warn: list[str] = []
+    if fit is not None:
+        if model is not None and model.spec != fit.model.spec:
+            raise ValueError(f"diagnose: the fit is of {fit.model.label}, the model given is {model.label}")
+        if fit.n_points != meas.n_points:
+            raise ValueError(
+                f"diagnose: the fit used {fit.n_points} points, {meas.source} has {meas.n_points}"
+            )
+        model = fit.model
     if model is None:
         say("choosing the base model by evidence")
         fit, lz, scores = preferred_base_model(meas)
@@ -279,8 +433,8 @@ def diagnose(
             + ")"
         )
     else:
-        fit = fit_admittance(meas, model)
-        ev0 = evidence(meas, fit)
+        fit = fit_admittance(meas, model) if fit is None else fit
+        ev0 = fit_log_evidence(meas, fit)
         lz = ev0.log_z
         if ev0.fallback and math.isfinite(lz):
             warn.append(
@@ -340,8 +494,10 @@ def diagnose(
                 }
             )
             if deadline is not None and time.process_time() > deadline:
-                warn.append(f"time budget of {time_budget:g} s reached while trying candidates for the band "
-                            f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted")
+                warn.append(
+                    f"time budget of {time_budget:g} s reached while trying candidates for the band "
+                    f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted"
+                )
             if ranked and ranked[0].accepted:
                 accepted = (band, ranked[0])
                 # rivals the evidence cannot tell from the winner (|ln B| < 1, Kass & Raftery's

@@ -44,13 +44,13 @@ from ..errors import FitError
 from ..estimation.augment import augmentation_starts
 from ..estimation.fitting import fit_admittance
 from ..estimation.results import FitResult
+from ..evidence.fit_evidence import Evidence, fit_log_evidence
 from ..evidence.scale import verbal
 from ..inference.likelihood import Likelihood
 from ..measurement import Measurement
 from ..models import Model, make_term
 from ..models.residual import relative_residual, rms_relative_residual
 from .candidates import escalations
-from .evidence import Evidence, evidence
 from .locate import Band, scan_statistics
 
 __all__ = [
@@ -126,7 +126,7 @@ def log_evidence(meas: Measurement, fit: FitResult) -> float:
     """Log evidence [nats] of ``fit.model`` on ``meas`` (Gaussian likelihood with sampled noise
     scales) from the least-squares fit: the Laplace screen, its fallback when the screen fails
     (:func:`.evidence.evidence`); ``nan`` when neither gives a number."""
-    return evidence(meas, fit).log_z
+    return fit_log_evidence(meas, fit).log_z
 
 
 def max_log_likelihood(meas: Measurement, fit: FitResult) -> float:
@@ -227,7 +227,7 @@ def fit_candidate(
                 fit = fit_admittance(meas, model)
             except (FitError, ValueError):
                 continue
-            ev = evidence(meas, fit)
+            ev = fit_log_evidence(meas, fit)
             lz = ev.log_z
             out.append((fit, ev))
             if model.rings is not None:  # the ring ladder
@@ -250,7 +250,7 @@ def fit_candidate(
     if not ok:
         return []
     best = min(ok, key=lambda f: f.chi2)
-    return [(best, evidence(meas, best))]
+    return [(best, fit_log_evidence(meas, best))]
 
 
 def rank_candidates(

@@ -2,18 +2,21 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..io.paramfile import param_record
+from .._record import Record, Table
+from ..io.paramfile import model_from_record, param_record
 from ..models import Model
+from ..models.derived import DERIVED, derived_values
 
 __all__ = ["FitResult"]
 
 
-@dataclass(frozen=True)
-class FitResult:
+@dataclass(frozen=True, repr=False)
+class FitResult(Record):
     """A deterministic (least-squares) estimate.
 
     Attributes
@@ -46,6 +49,8 @@ class FitResult:
     initial: np.ndarray | None = None
     info: dict = field(default_factory=dict)
     warnings: tuple[dict, ...] = ()
+
+    kind = "fit"
 
     @property
     def warning_codes(self) -> tuple[str, ...]:
@@ -84,4 +89,44 @@ class FitResult:
             "success": bool(self.success),
             "message": self.message,
             "warnings": [{"code": str(w["code"]), "message": str(w["message"])} for w in self.warnings],
+            "derived": derived_values(self.model, self.theta),
+            "derived_units": {k: v[0] for k, v in DERIVED.items()},
+            "cov_z": None if self.cov_z is None else np.asarray(self.cov_z, float).tolist(),
         }
+
+    @classmethod
+    def from_json_dict(cls, rec: Mapping) -> FitResult:
+        """The fit a :meth:`to_json_dict` record (``fit --json``, :meth:`save`) describes: model,
+        values, covariance (when the record has one), residual figures and warnings."""
+        model, theta = model_from_record(rec, where="fit record")
+        cov = rec.get("cov_z")
+        cov_z = None if cov is None else np.asarray(cov, float)
+        if cov_z is not None and cov_z.shape != (model.ndim, model.ndim):
+            raise ValueError(f"cov_z has shape {cov_z.shape}, the model has {model.ndim} parameters")
+        return cls(model, theta, cov_z, float(rec.get("chi2", float("nan"))),
+                   float(rec.get("rms_rel_residual", float("nan"))), int(rec.get("n_points", 0)),
+                   bool(rec.get("success", True)), str(rec.get("message", "")),
+                   warnings=tuple({"code": w["code"], "message": w["message"]}
+                                  for w in rec.get("warnings", ())))
+
+    # ---- what a person reads -------------------------------------------------------------------
+    def headline(self) -> str:
+        w = f", {len(self.warnings)} warning(s)" if self.warnings else ""
+        return (f"{self.model.label} fit of {self.n_points} points, rms relative residual "
+                f"{100 * self.rms_rel_residual:.3g} %{w}")
+
+    def tables(self) -> list[Table]:
+        se = self.stderr
+        rows = tuple((s.name, float(v), se[s.name], s.unit, s.description)
+                     for s, v in zip(self.model.params, self.theta, strict=True))
+        d = derived_values(self.model, self.theta)
+        drows = tuple((k, v, "", DERIVED[k][0], DERIVED[k][1]) for k, v in d.items() if np.isfinite(v))
+        notes = (f"rms relative residual {100 * self.rms_rel_residual:.4g} % over {self.n_points} points; "
+                 + ("optimiser converged" if self.success
+                    else f"optimiser did NOT converge: {self.message}"),)
+        out = [Table(f"{self.model.label}: least-squares estimate (standard errors from the Jacobian)",
+                     ("parameter", "value", "std. error", "unit", "meaning"), rows + drows, notes)]
+        if self.warnings:
+            out.append(Table("warnings", ("code", "message"),
+                             tuple((w["code"], w["message"]) for w in self.warnings)))
+        return out

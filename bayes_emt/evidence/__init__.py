@@ -13,13 +13,15 @@ frozen records of :mod:`.records`.
 
 from .bridge import BridgeResult, bridge_evidence
 from .compare import CompareSettings, compare_models, model_evidence
+from .fit_evidence import Evidence, fit_log_evidence
 from .laplace import LaplaceResult, laplace_evidence
 from .nested import NestedRun, NestedSettings, read_nested, run_nested
 from .records import Comparison, ModelEvidence
 from .repartition import Repartition, RepartitionedTarget
 from .rings import ring_choice, rings_by_evidence
 
-__all__ = ["BridgeResult", "bridge_evidence", "CompareSettings", "compare_models", "model_evidence",
+__all__ = ["Evidence", "fit_log_evidence", "BridgeResult", "bridge_evidence", "CompareSettings",
+           "compare_models", "model_evidence",
            "LaplaceResult", "laplace_evidence", "NestedRun", "NestedSettings", "read_nested", "run_nested",
            "Comparison", "ModelEvidence", "Repartition", "RepartitionedTarget", "ring_choice",
            "rings_by_evidence"]

@@ -51,11 +51,12 @@ from .._atomic import atomic_write_text
 from ..errors import ConvergenceWarning
 from ..estimation.fitting import fit_admittance
 from ..inference.likelihood import Likelihood, measurement_sha256
-from ..inference.sampling import SamplerSettings, noise_start, sample_likelihood
+from ..inference.sampling import SamplerSettings, sample_likelihood
 from ..measurement import Measurement
 from ..models import Model
 from .bound import below_bound, evidence_lower_bound
 from .bridge import bridge_evidence
+from .fit_evidence import fit_log_evidence
 from .laplace import laplace_evidence
 from .loo import psis_loo
 from .nested import NestedSettings, run_nested
@@ -122,24 +123,6 @@ def _stem(model: Model) -> str:
     return "".join(c if c.isalnum() else "_" for c in model.label)
 
 
-def fit_start(lik: Likelihood, fit) -> tuple[np.ndarray, np.ndarray, Warp]:
-    """The Laplace screen's start from a least-squares ``fit``: ``(z0, scale, warp)`` in ``lik``'s
-    sampling space. ``z0`` is the fit's values with the noise scales started from its residual
-    (:func:`~bayes_emt.inference.sampling.noise_start`); ``scale`` whitens by the fit's covariance (a
-    0.1 % guess per coordinate when it has none) and the noise start's spread; ``warp`` logit-maps
-    the noise coordinates, whose posterior may press against a prior bound, which a fit cannot
-    tell."""
-    k = lik.model.ndim
-    centre, spread = noise_start(fit.rms_rel_residual, float(np.min(np.abs(lik.meas.Y))))
-    z0 = np.r_[fit.z, centre, [math.log(10.0)] * lik.sample_nu]
-    cov_fit = fit.cov_z if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)) else \
-        np.diag((1e-3 * np.maximum(np.abs(fit.z), 1.0)) ** 2)
-    scale = np.zeros((lik.ndim, lik.ndim))
-    scale[:k, :k] = cov_fit
-    scale[k:, k:] = np.diag(np.square(list(spread) + [0.3] * lik.sample_nu))
-    return z0, scale, Warp.of(lik.params, mask=np.arange(lik.ndim) >= k)
-
-
 def _laplace(lik: Likelihood, fit, post=None) -> tuple[dict, int]:
     """Laplace from the posterior draws when there are some (start: the best draw, scale and warp
     from the draws), else from the least-squares fit (noise coordinates warped: their posterior
@@ -149,10 +132,10 @@ def _laplace(lik: Likelihood, fit, post=None) -> tuple[dict, int]:
         z0 = zs[int(np.argmax(post.log_prob.reshape(-1)))]
         scale = np.cov(zs, rowvar=False)
         warp = Warp.near_bounds(lik.params, zs.min(axis=0), zs.max(axis=0), zs.std(axis=0), n_sd=3.0)
-    else:
-        z0, scale, warp = fit_start(lik, fit)
-    res = laplace_evidence(lik.log_posterior_z, lik.params, z0, scale, warp=warp)
-    return res.to_json_dict(), res.n_calls
+        res = laplace_evidence(lik.log_posterior_z, lik.params, z0, scale, warp=warp)
+        return res.to_json_dict(), res.n_calls
+    ev = fit_log_evidence(lik.meas, fit, lik=lik)
+    return ev.to_json_dict(), ev.n_calls
 
 
 def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,

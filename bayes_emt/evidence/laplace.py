@@ -117,7 +117,7 @@ def laplace_evidence(log_density_z, params: ParamSet, z0: np.ndarray, scale_z: n
     xi = xi0
     for _ in range(2):
         L = _sqrt_psd(S)
-        x_of = _affine(xi, L)
+        x_of = affine_map(xi, L)
 
         def nlp(eta, x_of=x_of):
             return -float(log_q(x_of(eta[None, :]))[0])
@@ -136,7 +136,7 @@ def laplace_evidence(log_density_z, params: ParamSet, z0: np.ndarray, scale_z: n
                                 options={"gtol": 1e-6, "maxiter": 500})
         calls += res.nfev
         xi = x_of(res.x[None, :])[0]
-        at_mode = _affine(xi, L)
+        at_mode = affine_map(xi, L)
         H_eta, f0, n = hessian_fd(lambda e, x_of=at_mode: log_q(x_of(e)), np.zeros(xi.size))
         calls += n
         if not np.all(np.isfinite(H_eta)):
@@ -172,7 +172,7 @@ def _sqrt_psd(S: np.ndarray) -> np.ndarray:
     return V * np.sqrt(w)
 
 
-def _affine(xi0: np.ndarray, L: np.ndarray):
+def affine_map(xi0: np.ndarray, L: np.ndarray):
     def x_of(eta):
         return xi0 + np.asarray(eta, float) @ L.T
 

@@ -21,6 +21,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+from .._record import Record, Table
 from .scale import SCALE_REFERENCE, bayes_factor, verbal
 
 __all__ = ["ModelEvidence", "Comparison", "combine_methods", "DISAGREEMENT_NATS"]
@@ -126,8 +127,8 @@ def _num(x):
     return None if x is None or not math.isfinite(float(x)) else float(x)
 
 
-@dataclass(frozen=True)
-class Comparison:
+@dataclass(frozen=True, repr=False)
+class Comparison(Record):
     """Evidence of every candidate, Bayes factors, prior sensitivity and (optionally) the NL ring
     count by evidence beside Hankel's.
 
@@ -147,6 +148,8 @@ class Comparison:
     rings: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
+
+    kind = "comparison"
 
     def _valid(self) -> list[ModelEvidence]:
         return [m for m in self.models if math.isfinite(m.log_evidence)]
@@ -208,4 +211,46 @@ class Comparison:
                                       "survives": self.surviving()},
                 "rings": self.rings, "source": self.source, "data_sha256": self.data_sha256,
                 "n_points": self.n_points, "settings": self.settings, "units": "nats",
-                "evidence_seconds": {m.name: m.seconds_total for m in self.models}}
+                "evidence_seconds": {m.name: m.seconds_total for m in self.models},
+                "comparison_warnings": list(self.warnings)}
+
+    @classmethod
+    def from_json_dict(cls, d: Mapping) -> Comparison:
+        """The comparison a :meth:`to_json_dict` record (``compare --json``, :meth:`save`) holds."""
+        return cls(tuple(ModelEvidence.from_json_dict(m) for m in d["models"]), d.get("source", ""),
+                   d.get("data_sha256", ""), int(d.get("n_points", 0)), dict(d.get("rings") or {}),
+                   dict(d.get("settings") or {}), tuple(d.get("comparison_warnings", ())))
+
+    @property
+    def log_evidence(self) -> dict[str, float]:
+        """``{name: log Z}`` [nats], the combined estimate of each candidate."""
+        return {m.name: m.log_evidence for m in self.models}
+
+    # ---- what a person reads -------------------------------------------------------------------
+    def headline(self) -> str:
+        best = self.best
+        return (f"{len(self.models)} models compared by evidence on {self.n_points} points; best: "
+                f"{best if best else 'none'}")
+
+    def tables(self) -> list[Table]:
+        methods = [k for k in ("nested", "bridge", "laplace") if any(k in m.by_method for m in self.models)]
+        best = max((m.log_evidence for m in self._valid()), default=math.nan)
+
+        def by(m, k):
+            v = m.by_method.get(k, {})
+            return v.get("log_evidence") if not v.get("excluded") else None
+
+        rows = tuple((m.name, m.log_evidence, m.log_evidence_err, m.log_evidence - best,
+                      *(by(m, k) for k in methods), "yes" if m.converged else "NO", m.seconds_total)
+                     for m in self.models)
+        cols = ("model", "log Z [nats]", "+-", "ln B vs best [nats]", *(f"{k} [nats]" for k in methods),
+                "chain converged", "time [s]")
+        rec = self.to_json_dict()
+        notes = [f"best: {rec['best']} ({rec['best_verdict'] or 'no verdict'}); scale: {SCALE_REFERENCE}"]
+        if self.rings:
+            notes.append(f"NL ring count: {self.rings.get('by_evidence')} by evidence, "
+                         f"{self.rings.get('hankel')} by Hankel singular values")
+        out = [Table("model comparison by evidence (natural logs)", cols, rows, tuple(notes))]
+        if rec["warnings"]:
+            out.append(Table("warnings", ("message",), tuple((w,) for w in rec["warnings"])))
+        return out

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .._atomic import atomic_path
+from .._record import Record, Table
 from ..models import Model
 from ..models.derived import DERIVED
 from ..params import ParamSet
@@ -55,8 +56,8 @@ def _versions() -> dict:
     return out
 
 
-@dataclass(frozen=True, eq=False)
-class Posterior:
+@dataclass(frozen=True, eq=False, repr=False)
+class Posterior(Record):
     """Posterior draws of one model given one measurement (no sampler state inside).
 
     Attributes
@@ -197,6 +198,25 @@ class Posterior:
     def derived_units(self) -> dict[str, str]:
         """Unit of each quantity :meth:`derived` returns."""
         return {k: v[0] for k, v in DERIVED.items()}
+
+    # ---- what a person reads -------------------------------------------------------------------
+    def headline(self) -> str:
+        state = "converged" if self.converged else "NOT converged"
+        return (f"{self.model.label} posterior, {state}: {self.n_steps} steps x {self.n_walkers} walkers, "
+                f"{int(self.draws.shape[0] * self.draws.shape[1])} draws kept, seed {self.seed}")
+
+    def tables(self) -> list[Table]:
+        rows = tuple((r["name"], r["median"], r["q05"], r["q95"], r["unit"], r["ess"], r["tau"])
+                     for r in self.summary_rows())
+        units = self.derived_units()
+        drows = tuple((k, float(np.median(v)), float(np.quantile(v, 0.05)), float(np.quantile(v, 0.95)),
+                       units[k], "", "") for k, v in self.derived().items() if np.all(np.isfinite(v)))
+        note = (f"{'converged' if self.converged else 'NOT CONVERGED'}: {self.message}; burn {self.burn}, "
+                f"thin {self.thin}, acceptance {self.acceptance:.2f}, {self.wall_time:.1f} s")
+        return [Table(f"{self.model.label}: posterior median and central 90 % interval "
+                      f"({self.likelihood.kind} likelihood)",
+                      ("parameter", "median", "5 %", "95 %", "unit", "ESS", "tau [steps]"), rows + drows,
+                      (note,))]
 
     # ---- ArviZ -----------------------------------------------------------------------------------
     def _run_attrs(self) -> dict:

@@ -1,4 +1,7 @@
-"""A candidate's log evidence: the Laplace screen, and an honest fallback when the screen fails.
+"""The log evidence of a least-squares fit: the Laplace screen, and an honest fallback when the
+screen fails. One function, :func:`fit_log_evidence`, which the comparison's screen
+(:func:`bayes_emt.evidence.compare.model_evidence` without a posterior) and the diagnosis's candidate
+ranking (:mod:`bayes_emt.discovery`) share.
 
 The Laplace screen (:func:`bayes_emt.evidence.laplace.laplace_evidence`) needs a positive definite
 Hessian of the log posterior at its mode. It fails when the posterior is flat (or nearly so) along
@@ -58,14 +61,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..evidence.compare import fit_start
-from ..evidence.laplace import _affine, hessian_fd, laplace_evidence
-from ..evidence.warp import Warp
 from ..inference.likelihood import Likelihood
+from ..inference.sampling import noise_start
 from ..inference.start import floor_noise_start, posterior_mode
 from ..measurement import Measurement
+from .laplace import affine_map, hessian_fd, laplace_evidence
+from .warp import Warp
 
-__all__ = ["Evidence", "evidence", "subspace_laplace", "slice_log_integral", "TAU"]
+__all__ = ["Evidence", "fit_log_evidence", "fit_start", "subspace_laplace", "slice_log_integral", "TAU"]
 
 #: whitened curvature at or below which a direction counts as flat (posterior wider than ten times
 #: the scale the Hessian was taken at); such directions are integrated numerically
@@ -93,10 +96,18 @@ class Evidence:
     method: str
     note: str = ""
     flat: tuple[tuple[str, ...], ...] = ()
+    n_calls: int = 0
 
     @property
     def fallback(self) -> bool:
         return self.method != "laplace"
+
+    def to_json_dict(self) -> dict:
+        """The comparison's ``by_method["laplace"]`` record."""
+        ok = math.isfinite(self.log_z)
+        return {"method": "laplace", "log_evidence": self.log_z if ok else None, "err": None,
+                "n_calls": self.n_calls, "ok": ok and not self.fallback, "message": self.note,
+                "estimator": self.method}
 
 
 def slice_log_integral(g, c: float = 0.1, t_max: float = 1e4, tol: float = 0.01) -> float:
@@ -224,7 +235,7 @@ def subspace_laplace(log_density_z, names, z_mode, warp: Warp, seed: int = 0) ->
         # a difference point gives a non-finite log density (a model evaluation out of range)
         for shrink in (1.0, 1e-1, 1e-2, 1e-3, 1e-4):
             Ls = L * shrink
-            x_of = _affine(xi, Ls)
+            x_of = affine_map(xi, Ls)
             H, f0, _n = hessian_fd(lambda e, x_of=x_of: log_q(x_of(e)), np.zeros(xi.size))
             if math.isfinite(f0) and np.all(np.isfinite(H)):
                 return -0.5 * (H + H.T), f0, Ls
@@ -288,13 +299,31 @@ def subspace_laplace(log_density_z, names, z_mode, warp: Warp, seed: int = 0) ->
     return float(log_z), note, tuple(flat)
 
 
-def evidence(meas: Measurement, fit) -> Evidence:
-    """The Laplace log evidence of ``fit.model`` on ``meas`` (Gaussian likelihood with sampled noise
-    scales), from the least-squares fit, set up as the evidence package's screen from a fit
-    (:func:`bayes_emt.evidence.compare.fit_start`: the fit's covariance to whiten, the noise
-    coordinates warped); when the screen fails, :func:`subspace_laplace` at the screen's mode
-    (module docstring), flagged by :attr:`Evidence.method`."""
-    lik = Likelihood(fit.model, meas)
+def fit_start(lik: Likelihood, fit) -> tuple[np.ndarray, np.ndarray, Warp]:
+    """The Laplace screen's start from a least-squares ``fit``: ``(z0, scale, warp)`` in ``lik``'s
+    sampling space. ``z0`` is the fit's values with the noise scales started from its residual
+    (:func:`~bayes_emt.inference.sampling.noise_start`); ``scale`` whitens by the fit's covariance (a
+    0.1 % guess per coordinate when it has none) and the noise start's spread; ``warp`` logit-maps
+    the noise coordinates, whose posterior may press against a prior bound, which a fit cannot
+    tell."""
+    k = lik.model.ndim
+    centre, spread = noise_start(fit.rms_rel_residual, float(np.min(np.abs(lik.meas.Y))))
+    z0 = np.r_[fit.z, centre, [math.log(10.0)] * lik.sample_nu]
+    cov_fit = fit.cov_z if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)) else \
+        np.diag((1e-3 * np.maximum(np.abs(fit.z), 1.0)) ** 2)
+    scale = np.zeros((lik.ndim, lik.ndim))
+    scale[:k, :k] = cov_fit
+    scale[k:, k:] = np.diag(np.square(list(spread) + [0.3] * lik.sample_nu))
+    return z0, scale, Warp.of(lik.params, mask=np.arange(lik.ndim) >= k)
+
+
+def fit_log_evidence(meas: Measurement, fit, *, lik: Likelihood | None = None) -> Evidence:
+    """The Laplace log evidence [nats] of ``fit.model`` on ``meas`` from a least-squares ``fit``
+    (default likelihood: Gaussian with sampled noise scales; ``lik`` for another), started by
+    :func:`fit_start` (the fit's covariance to whiten, the noise coordinates warped); when the
+    screen fails, :func:`subspace_laplace` at the screen's mode (module docstring), flagged by
+    :attr:`Evidence.method`."""
+    lik = Likelihood(fit.model, meas) if lik is None else lik
     k = lik.model.ndim
     z0, scale, warp = fit_start(lik, fit)
     mode = z0
@@ -303,7 +332,7 @@ def evidence(meas: Measurement, fit) -> Evidence:
             warnings.simplefilter("ignore")
             res = laplace_evidence(lik.log_posterior_z, lik.params, z0, scale, warp=warp)
         if res.ok and math.isfinite(res.log_z):
-            return Evidence(float(res.log_z), "laplace")
+            return Evidence(float(res.log_z), "laplace", n_calls=int(res.n_calls))
         why = res.message or "the Laplace screen failed"
         if np.all(np.isfinite(res.mode_z)):
             mode = res.mode_z
