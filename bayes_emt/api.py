@@ -17,6 +17,7 @@ returns its record.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -28,6 +29,7 @@ from .estimation.results import FitResult
 from .evidence.compare import CompareSettings, compare_models
 from .evidence.nested import NestedSettings
 from .evidence.records import Comparison
+from .evidence.rings import expand_rings, parse_rings, ring_choice
 from .inference.posterior import Posterior, posterior_from_datatree
 from .inference.sampling import SamplerSettings, sample_posterior
 from .io import read_measurement
@@ -90,26 +92,38 @@ def sample(meas: Measurement | str | Path, model: Model | str | None = None, *, 
 
 def compare(meas: Measurement | str | Path, models: Sequence[str | Model] = ("I", "II", "III", "UD", "NL(5)"),
             *, seed: int = 0, methods: Sequence[str] = ("laplace", "bridge", "nested"),
-            max_steps: int | None = None, nested_prior: str = "posterior", nested_live: int | None = None,
+            rings: Sequence[int] | str | None = None, max_steps: int | None = None,
+            nested: NestedSettings | None = None, nested_prior: str = "posterior", nested_repeats: int = 1,
             loo: bool = True, results: str | Path | None = None, workdir: str | Path | None = None,
-            progress: bool = False) -> Comparison:
+            progress: bool = False, on_model=None) -> Comparison:
     """Evidence of each model (spec strings or Models): log Z by bridge sampling on its emcee
     posterior and by nested sampling (its prior repartitioned onto those draws), Laplace beside,
     Bayes factors on Kass & Raftery's scale, PSIS-LOO and prior sensitivity
     (:func:`~bayes_emt.evidence.compare.compare_models`). ``results``: a JSON file written after
-    every model (a re-run with the same file resumes)."""
+    every model (a re-run with the same file resumes). ``rings`` (``"1-7"``, ``[2, 3, 5]``): every
+    NL/UL spec once per ring count, and with several counts the ring count by evidence beside
+    Hankel's. ``on_model(model_evidence, reused)`` is called as each model finishes."""
     meas = as_measurement(meas)
     if isinstance(models, str | Model):
         models = [models]
-    specs = [(m if isinstance(m, str) else m.label, as_model(m)) for m in models]
+    counts = parse_rings(rings) if isinstance(rings, str) else None if rings is None else tuple(rings)
+    named = [(m if isinstance(m, str) else m.label, as_model(m)) for m in models]
+    specs, ringed = expand_rings(named, counts)
     labels = [m.label for _, m in specs]
     if len(set(labels)) != len(labels):
         raise ValueError(f"compare: each model once, got {', '.join(labels)}")
     sampler = SamplerSettings() if max_steps is None else SamplerSettings(max_steps=int(max_steps))
-    nested = NestedSettings() if nested_live is None else NestedSettings(n_live=int(nested_live))
-    settings = CompareSettings(seed=seed, methods=tuple(methods), sampler=sampler, nested=nested,
-                               nested_prior=nested_prior, loo=loo)
-    return compare_models(meas, specs, settings=settings, results=results, workdir=workdir, progress=progress)
+    settings = CompareSettings(seed=seed, methods=tuple(methods), sampler=sampler,
+                               nested=nested or NestedSettings(), nested_prior=nested_prior,
+                               nested_repeats=nested_repeats, loo=loo)
+    cmp = compare_models(meas, specs, settings=settings, results=results, workdir=workdir, progress=progress,
+                         on_model=on_model)
+    if ringed and counts is not None and len(counts) > 1:
+        group = [m for m in cmp.models if m.rings is not None and m.name.rsplit("(", 1)[0] == ringed[0]]
+        cmp = dataclasses.replace(cmp, rings=ring_choice(meas, group, max_rings=max(7, max(counts))))
+        if results is not None:
+            cmp.save(results)
+    return cmp
 
 
 def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *,

@@ -161,6 +161,7 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
     calls: dict[str, int] = {}
     by_method: dict[str, dict] = {}
     work = None if workdir is None else Path(workdir)
+    posterior_file = ""
     if work is not None:
         work.mkdir(parents=True, exist_ok=True)
     stem = _stem(model) + "_" + key[:8]
@@ -185,7 +186,7 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
         seconds["emcee"] = time.perf_counter() - t
         calls["emcee"] = int(post.n_steps * post.n_walkers)
         if work is not None:
-            post.save(work / f"{stem}_posterior.nc")
+            posterior_file = str(post.save(work / f"{stem}_posterior.nc"))
         t = time.perf_counter()
         draws_z = lik.params.to_z(post.draws)
         br = bridge_evidence(lik.log_posterior_z, lik.params, draws_z, seed=settings.seed,
@@ -273,7 +274,7 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
             notes += sens_notes
     return ModelEvidence(name, model.label, model.rings, lik.ndim, by_method, log_z, err, elpd, se, widened,
                          {k: float(v) for k, v in seconds.items()}, calls, converged, key, tuple(notes),
-                         bound)
+                         bound, posterior_file)
 
 
 def _missed_mode(runs, post, lik) -> list[str]:

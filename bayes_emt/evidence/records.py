@@ -77,6 +77,7 @@ class ModelEvidence:
     warnings : what makes a number untrustworthy.
     lower_bound : the evidence lower bound from the emcee draws (``{"log_evidence", "err", ...}``
         [nats], :mod:`.bound`), a check on ``by_method``, or ``{}``.
+    posterior_file : the emcee posterior saved by the run (netCDF; ``""`` when none was saved).
     """
 
     name: str
@@ -95,6 +96,7 @@ class ModelEvidence:
     key: str = ""
     warnings: tuple[str, ...] = ()
     lower_bound: dict = field(default_factory=dict)
+    posterior_file: str = ""
 
     @property
     def seconds_total(self) -> float:
@@ -107,7 +109,8 @@ class ModelEvidence:
                 "label": self.label, "n_params": self.n_params, "units": "nats",
                 "prior_widths_doubled": self.widened, "seconds": self.seconds,
                 "evidence_seconds": self.seconds_total, "calls": self.calls, "converged": self.converged,
-                "key": self.key, "warnings": list(self.warnings), "lower_bound": self.lower_bound}
+                "key": self.key, "warnings": list(self.warnings), "lower_bound": self.lower_bound,
+                "posterior_file": self.posterior_file}
 
     @classmethod
     def from_json_dict(cls, d: Mapping) -> ModelEvidence:
@@ -120,7 +123,8 @@ class ModelEvidence:
                    None if d.get("elpd_loo_se") is None else float(d["elpd_loo_se"]),
                    dict(d.get("prior_widths_doubled", {})), dict(d.get("seconds", {})),
                    dict(d.get("calls", {})), bool(d.get("converged", True)), d.get("key", ""),
-                   tuple(d.get("warnings", ())), dict(d.get("lower_bound") or {}))
+                   tuple(d.get("warnings", ())), dict(d.get("lower_bound") or {}),
+                   str(d.get("posterior_file") or ""))
 
 
 def _num(x):
@@ -221,6 +225,15 @@ class Comparison(Record):
                    d.get("data_sha256", ""), int(d.get("n_points", 0)), dict(d.get("rings") or {}),
                    dict(d.get("settings") or {}), tuple(d.get("comparison_warnings", ())))
 
+    def merged(self, *others: Comparison) -> Comparison:
+        """One comparison of this one's models and ``others``' (same measurement), in that order."""
+        for o in others:
+            if o.data_sha256 != self.data_sha256:
+                raise ValueError(f"cannot merge comparisons of different data ({o.source} and {self.source})")
+        models = self.models + tuple(m for o in others for m in o.models)
+        return Comparison(models, self.source, self.data_sha256, self.n_points, self.rings, self.settings,
+                          self.warnings + tuple(w for o in others for w in o.warnings))
+
     @property
     def log_evidence(self) -> dict[str, float]:
         """``{name: log Z}`` [nats], the combined estimate of each candidate."""
@@ -240,17 +253,24 @@ class Comparison(Record):
             v = m.by_method.get(k, {})
             return v.get("log_evidence") if not v.get("excluded") else None
 
-        rows = tuple((m.name, m.log_evidence, m.log_evidence_err, m.log_evidence - best,
-                      *(by(m, k) for k in methods), "yes" if m.converged else "NO", m.seconds_total)
+        rows = tuple((m.name, m.n_params, m.log_evidence, m.log_evidence_err, m.log_evidence - best,
+                      *(by(m, k) for k in methods), m.elpd_loo, m.widened.get("delta"),
+                      "yes" if m.converged else "NO", m.seconds_total)
                      for m in self.models)
-        cols = ("model", "log Z [nats]", "+-", "ln B vs best [nats]", *(f"{k} [nats]" for k in methods),
-                "chain converged", "time [s]")
+        cols = ("model", "k", "log Z [nats]", "+-", "ln B vs best", *(f"{k} [nats]" for k in methods),
+                "elpd_loo [nats]", "dlogZ widths x2", "chain converged", "time [s]")
         rec = self.to_json_dict()
         notes = [f"best: {rec['best']} ({rec['best_verdict'] or 'no verdict'}); scale: {SCALE_REFERENCE}"]
         if self.rings:
-            notes.append(f"NL ring count: {self.rings.get('by_evidence')} by evidence, "
-                         f"{self.rings.get('hankel')} by Hankel singular values")
+            notes.append(f"NL ring count: {self.rings.get('agreement', self.rings.get('by_evidence'))} "
+                         f"(evidence rule: {self.rings.get('rule', '')})")
         out = [Table("model comparison by evidence (natural logs)", cols, rows, tuple(notes))]
+        det, surv = rec["bayes_factor_details"], rec["prior_sensitivity"]["survives"]
+        if det:
+            out.append(Table("Bayes factors", ("pair A/B", "ln B [nats]", "+-", "verdict", "favours",
+                                                "survives widths x2"),
+                             tuple((k, v["log_bayes_factor"], v["err"], v["verdict"], v["favours"] or "-",
+                                    "yes" if surv.get(k) else "no") for k, v in det.items())))
         if rec["warnings"]:
             out.append(Table("warnings", ("message",), tuple((w,) for w in rec["warnings"])))
         return out

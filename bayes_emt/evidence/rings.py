@@ -15,9 +15,10 @@ from collections.abc import Sequence
 
 from ..estimation.hankel import select_rings
 from ..measurement import Measurement
+from ..models import Model, build_model
 from .records import ModelEvidence
 
-__all__ = ["rings_by_evidence", "ring_choice", "parse_rings"]
+__all__ = ["expand_rings", "rings_by_evidence", "ring_choice", "parse_rings"]
 
 
 def parse_rings(text: str) -> tuple[int, ...]:
@@ -38,6 +39,22 @@ def parse_rings(text: str) -> tuple[int, ...]:
     if not out or min(out) < 1:
         raise ValueError(f"--rings: ring counts must be positive integers, got {text!r}")
     return tuple(sorted(set(out)))
+
+
+def expand_rings(specs: Sequence[tuple[str, Model]], rings: Sequence[int] | None
+                 ) -> tuple[list[tuple[str, Model]], list[str]]:
+    """``(name, model)`` candidates with every ringed model (NL, UL) once per count of ``rings``
+    (named ``NAME(n)`` when there are several), and the names that were expanded."""
+    out, ringed = [], []
+    for name, model in specs:
+        if model.rings is None or not rings:
+            out.append((name, model))
+            continue
+        ringed.append(name)
+        for n in rings:
+            out.append((name if len(rings) == 1 else f"{name}({n})",
+                        build_model(model.spec, rings=n, n_turns=model.n_turns)))
+    return out, ringed
 
 
 def rings_by_evidence(models: Sequence[ModelEvidence], tolerance: float = 1.0) -> dict:

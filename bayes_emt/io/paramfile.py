@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .._atomic import atomic_write_text
+from .._json import strict_json
 from ..errors import DataFormatError
 from ..models import Model, model_from_dict
 
@@ -89,5 +90,5 @@ def param_record(model: Model, theta) -> dict:
 
 
 def write_json(path: str | Path, obj) -> None:
-    """Write ``obj`` as indented JSON, atomically."""
-    atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=False, allow_nan=False) + "\n")
+    """Write ``obj`` as indented strict JSON (a non-finite number is ``null``), atomically."""
+    atomic_write_text(path, json.dumps(strict_json(obj), indent=2, sort_keys=False, allow_nan=False) + "\n")

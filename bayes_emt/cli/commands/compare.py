@@ -14,10 +14,9 @@ Exit status 0, or 1 when a result is flagged (see the warnings), 2 on a user err
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
-from ._common import add_data_args, add_output_args, add_parser, detail, note, print_table
+from ._common import add_data_args, add_output_args, add_parser, detail, note
 
 EXAMPLES = """\
 bayes-emt compare speaker.zma --models I,UD,NL --json evidence.json --plot figures/
@@ -60,35 +59,24 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _specs(models: str, rings_text: str | None):
+def _models(text: str) -> list[str]:
     from ...api import as_model
-    from ...evidence.rings import parse_rings
 
-    names = [m.strip() for m in models.split(",") if m.strip()]
+    names = [m.strip() for m in text.split(",") if m.strip()]
     if not names:
         raise ValueError("--models: no model given")
-    rings = None if rings_text is None else parse_rings(rings_text)
-    specs, ringed = [], []
     for name in names:
         try:
-            base = as_model(name)
+            as_model(name)
         except (ValueError, KeyError) as exc:
             raise ValueError(f"--models: {name}: {exc.args[0] if exc.args else exc}") from None
-        if base.rings is None or rings is None:
-            specs.append((name, base))
-            continue
-        ringed.append(name)
-        for n in rings:
-            specs.append((name if len(rings) == 1 else f"{name}({n})", as_model(name, rings=n)))
-    return specs, ringed, rings
+    return names
 
 
 def run(args) -> int:
-    from ...evidence.compare import CompareSettings, compare_models
+    from ...api import compare
     from ...evidence.nested import NestedSettings
-    from ...evidence.records import Comparison
-    from ...evidence.rings import ring_choice
-    from ...inference.sampling import SamplerSettings
+    from ...evidence.rings import parse_rings
     from ...io import read_measurement
 
     methods = tuple(m.strip() for m in args.methods.split(",") if m.strip())
@@ -96,16 +84,14 @@ def run(args) -> int:
         raise ValueError("--walks: random-walk steps do not apply to --sample slice")
     knobs = (("n_live", args.nlive), ("walks", args.walks), ("sample", args.sample))
     nested = NestedSettings(**{k: v for k, v in knobs if v is not None})
-    sampler = SamplerSettings(**({} if args.max_steps is None else {"max_steps": args.max_steps}))
-    settings = CompareSettings(seed=args.seed, methods=methods, nested=nested, sampler=sampler,
-                               nested_repeats=args.nested_repeats, nested_prior=args.nested_prior)
-    specs, ringed, rings = _specs(args.models, args.rings)
+    names = _models(args.models)
+    rings = None if args.rings is None else parse_rings(args.rings)
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
                             quantity=args.quantity).select(args.omega_min, args.omega_max)
     if args.json and Path(args.json).resolve() == Path(args.data).resolve():
         raise ValueError(f"{args.json}: the results file must not be the data file")
-    note(args, f"comparing {len(specs)} model(s) on {meas.source} ({meas.n_points} points, "
-          f"{meas.omega[0]:.4g}..{meas.omega[-1]:.4g} rad/s), seed {args.seed}, methods {', '.join(methods)}")
+    note(args, f"comparing {', '.join(names)} on {meas.source} ({meas.n_points} points, "
+         f"{meas.omega[0]:.4g}..{meas.omega[-1]:.4g} rad/s), seed {args.seed}, methods {', '.join(methods)}")
 
     def show(m, reused):
         by = ", ".join(f"{k} {v['log_evidence']:.2f}"
@@ -119,18 +105,12 @@ def run(args) -> int:
         for w in m.warnings:
             detail(args, f"    warning: {w}")
 
-    cmp = compare_models(meas, specs, settings=settings, results=args.json, workdir=args.work,
-                         progress=not args.quiet, on_model=show)
-    if ringed and rings is not None and len(rings) > 1:
-        from dataclasses import replace
-
-        group = [m for m in cmp.models if m.rings is not None and m.name.rsplit("(", 1)[0] == ringed[0]]
-        cmp = replace(cmp, rings=ring_choice(meas, group, max_rings=max(7, max(rings))))
-    _report(cmp)
+    cmp = compare(meas, names, seed=args.seed, methods=methods, rings=rings, max_steps=args.max_steps,
+                  nested=nested, nested_prior=args.nested_prior, nested_repeats=args.nested_repeats,
+                  results=args.json, workdir=args.work, progress=not args.quiet, on_model=show)
+    print(cmp.summary(), end="")
     if args.json:
-        from ...io.paramfile import write_json
-
-        write_json(args.json, cmp.to_json_dict())
+        cmp.save(args.json)
         note(args, f"wrote {args.json}")
     if args.plot:
         from ...plotting import save_figure
@@ -140,39 +120,4 @@ def run(args) -> int:
         folder.mkdir(parents=True, exist_ok=True)
         path = save_figure(plot_evidence(cmp), folder / "evidence.png")
         note(args, f"wrote {path}")
-    assert isinstance(cmp, Comparison)
     return 1 if cmp.all_warnings() else 0
-
-
-def _report(cmp) -> None:
-    d = cmp.to_json_dict()
-    rows = []
-    for m in d["models"]:
-        bm = m["by_method"]
-
-        def cell(k, bm=bm):
-            v = bm.get(k)
-            if not v or v.get("log_evidence") is None:
-                return "-"
-            return f"{v['log_evidence']:.2f}" + (f" +- {v['err']:.2f}" if v.get("err") is not None else "")
-
-        lz = "nan" if m["log_evidence"] is None else f"{m['log_evidence']:.2f} +- {m['log_evidence_err']:.2f}"
-        loo = "-" if m["elpd_loo"] is None else f"{m['elpd_loo']:.1f} +- {m['elpd_loo_se']:.1f}"
-        wid = m["prior_widths_doubled"].get("delta")
-        rows.append((m["name"], m["n_params"], lz, cell("nested"), cell("bridge"), cell("laplace"), loo,
-                     "-" if wid is None or not math.isfinite(wid) else f"{wid:+.2f}",
-                     f"{m['evidence_seconds']:.0f}"))
-    print_table(rows, ("model", "k", "log Z [nats]", "nested", "bridge", "laplace", "elpd_loo [nats]",
-                       "dlogZ (widths x2)", "time [s]"))
-    print(f"best: {d['best']} ({d['best_verdict']}); scale: {d['scale']}")
-    det = d["bayes_factor_details"]
-    surv = d["prior_sensitivity"]["survives"]
-    brow = [(k, f"{v['log_bayes_factor']:+.2f} +- {v['err']:.2f}", v["verdict"], v["favours"] or "-",
-             "yes" if surv.get(k) else "no") for k, v in det.items()]
-    if brow:
-        print_table(brow, ("pair A/B", "ln B [nats]", "verdict", "favours", "survives widths x2"))
-    if d["rings"]:
-        r = d["rings"]
-        print(f"NL ring count: {r.get('agreement')} (evidence rule: {r.get('rule')})")
-    for w in d["warnings"]:
-        print(f"warning: {w}")

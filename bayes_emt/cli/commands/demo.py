@@ -12,17 +12,15 @@
    (``diagnose``, issue 13); the diagnosis is not told about it;
 6. write ``report.html`` (``bayes-emt report`` rebuilds it from the saved outputs).
 
-Steps whose feature is not in this build are recorded as such in run.json and in the report.
-Exit status 0; 1 when a result is flagged (posterior not converged, a step failed); 2 on a
-user error.
+Every step calls a public verb of :mod:`bayes_emt.api` (``be.fit``, ``be.compare``, ``be.load``,
+``be.design_shunt``, ``be.robust_shunt``, ``be.diagnose``) and writes what it returns; no step runs
+another command. Exit status 0 when the chain completes (a shortfall, such as ``--quick``'s
+unconverged chains, is a warning on top of the report); 1 when a step failed; 2 on a user error.
 """
 
 from __future__ import annotations
 
-import argparse
-import contextlib
-import importlib.util
-import io
+import dataclasses
 import math
 import sys
 import time
@@ -115,32 +113,10 @@ class _Demo:
         if status != "ran":
             self.say(f"[{name}] {status}: {detail}")
 
-    def invoke(self, module, argv: list[str]) -> int:
-        """Run another sub-command in-process (its own parser, so its own checks), its output
-        shown only with --verbose; raises what it raises."""
-        p = argparse.ArgumentParser(prog="bayes-emt")
-        sub = p.add_subparsers(dest="command")
-        module.register(sub)
-        name = next(iter(sub.choices))
-        err = io.StringIO()
-        try:
-            with contextlib.redirect_stderr(err):
-                args = p.parse_args([name, *argv])
-        except SystemExit:
-            last = (err.getvalue().strip().splitlines() or ["?"])[-1]
-            raise ValueError(f"this build's `{name}` command does not take these options ({last})") from None
-        if self.args.verbose:
-            return int(args.func(args) or 0)
-        buf = io.StringIO()
-        with contextlib.redirect_stdout(buf):
-            return int(args.func(args) or 0)
-
-
-def _available(module: str) -> bool:
-    try:
-        return importlib.util.find_spec(module) is not None
-    except ModuleNotFoundError:
-        return False
+    def failed(self, name: str, exc: BaseException, t: float) -> None:
+        msg = _one_line(exc)
+        self.step(name, "failed", msg, time.perf_counter() - t)
+        self.warnings.append(f"{name} failed: {msg}")
 
 
 def _recording_summary(meas, role: str) -> dict:
@@ -165,8 +141,9 @@ def _recording_summary(meas, role: str) -> dict:
 
 
 def run(args) -> int:
-    from ...io import read_measurement
-    from ...io.datasets import concealed_bench_path, load_concealed_bench, load_paper_bench
+    from ... import api as be
+    from ...io.paramfile import write_json
+    from ...report import build_report
 
     skip = {x.strip() for x in (args.skip or "").split(",") if x.strip()}
     if skip - set(SKIPPABLE):
@@ -181,9 +158,8 @@ def run(args) -> int:
     check_outputs(inputs=[("--data", args.data), ("--concealed", args.concealed)],
                   folders=[("--out", out, OUTPUTS)])
     out.mkdir(parents=True, exist_ok=True)
-    meas = read_measurement(args.data) if args.data else load_paper_bench()
-    concealed_path = Path(args.concealed) if args.concealed else concealed_bench_path()
-    concealed = read_measurement(args.concealed) if args.concealed else load_concealed_bench()
+    meas = be.read(args.data) if args.data else be.load_paper_bench()
+    concealed = be.read(args.concealed) if args.concealed else be.load_concealed_bench()
     truth = meas.meta.get("written_meta", {}).get("truth") if not args.data else None
     run_rec = {"title": "bayes_emt demo" + (" (--quick)" if args.quick else ""), "quick": bool(args.quick),
                "seed": args.seed, "cut": list(QUICK_CUTS) if args.quick else list(FULL_CUTS),
@@ -201,23 +177,26 @@ def run(args) -> int:
 
     fits = _fits(d, meas, cfg, truth)
     _hankel(d, meas, cfg)
-    preferred, evidence_nc = _evidence(d, meas, fits, cfg)
-    post_nc = _posterior(d, evidence_nc, preferred, fits[preferred].warnings if preferred in fits else ())
-    _shunts(d, fits, preferred)
+    preferred, cmp = _evidence(d, meas, fits, cfg)
+    post = _posterior(d, cmp, preferred, fits)
+    _shunts(d, fits)
     if "robust_shunt" in skip:
         d.step("robust_shunt", "skipped", "--skip robust_shunt was given")
     else:
-        _robust(d, post_nc, preferred, cfg)
+        _robust(d, post, fits.get(preferred), cfg)
     if "diagnose" in skip:
         d.step("diagnose", "skipped", "--skip diagnose was given")
     else:
-        _diagnose(d, concealed, concealed_path, preferred)
+        _diagnose(d, concealed, preferred)
 
+    unconverged = [s for s in d.steps if s["name"] == "sample" and "NOT CONVERGED" in s["detail"]]
+    if unconverged:
+        d.warnings.append("the preferred model's posterior did not converge"
+                          + (" (--quick runs 300-step chains: expected; the full demo runs them to "
+                             "convergence)" if args.quick else "") + ": its intervals, the evidence and the "
+                          "robust shunt drawn from it are not to be trusted")
     run_rec.update(steps=d.steps, warnings=d.warnings, total_seconds=time.perf_counter() - d.t0,
                    preferred_model=preferred)
-    from ...io.paramfile import write_json
-    from ...report import build_report
-
     write_json(out / "run.json", run_rec)
     report = build_report(out)
     d.section("outputs")
@@ -226,18 +205,17 @@ def run(args) -> int:
             d.say(f"  {f.resolve()}  ({f.stat().st_size / 1024:.0f} kB)")
     total = time.perf_counter() - d.t0
     print(f"report: {report.resolve()}  (demo took {total:.0f} s)")
-    flagged = [s for s in d.steps if s["status"] == "failed"] or any(
-        s["name"] == "sample" and "NOT CONVERGED" in s["detail"] for s in d.steps)
-    if flagged:
-        d.say("a result is flagged (see the warnings on top of the report): exit code 1")
+    for w in d.warnings:
+        d.say(f"warning: {w}")
+    if any(s["status"] == "failed" for s in d.steps):
+        d.say("a step failed (see the warnings on top of the report): exit code 1")
         return 1
     return 0
 
 
 def _fits(d: _Demo, meas, cfg, truth) -> dict:
-    from ...estimation.fitting import fit_admittance
+    from ... import api as be
     from ...io.paramfile import write_json
-    from ...models import build_model
     from ...plotting import save_figure
     from ...plotting.residuals import plot_residuals
 
@@ -246,7 +224,7 @@ def _fits(d: _Demo, meas, cfg, truth) -> dict:
     for name in _progress(d, cfg["models"], "fits"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            fit = fit_admittance(meas, build_model(name))
+            fit = be.fit(meas, name)
         fits[name] = fit
         p = fit.parameters
         rows.append((fit.model.label, f"{100 * fit.rms_rel_residual:.3f}", f"{p['zeta']:.4g}",
@@ -262,7 +240,7 @@ def _fits(d: _Demo, meas, cfg, truth) -> dict:
                 print_warnings(fit.warnings, indent="  ")
     write_json(d.out / "fits.json", {k: f.to_json_dict() for k, f in fits.items()})
     for k, f in fits.items():
-        write_json(d.out / f"fit_{k}.json", f.to_json_dict())
+        f.save(d.out / f"fit_{k}.json")
     save_figure(plot_residuals(meas, {k: (f.model, f.theta) for k, f in fits.items()},
                                title=f"{meas.source}: relative residuals of every fit"),
                 d.out / "residuals.png", dpi=100)
@@ -297,16 +275,12 @@ def _hankel(d: _Demo, meas, cfg) -> int:
     return rc.rings
 
 
-def _evidence(d: _Demo, meas, fits, cfg) -> tuple[str, Path | None]:
-    """Evidence of every fitted model: bridge sampling on its emcee posterior and the Laplace
-    screen at the posterior mode (``compare_models``; the Laplace screen from the least-squares fit
-    alone is not used: its Hessian is often not positive definite there). Returns the preferred
-    model's name and its posterior file (the emcee run the evidence used), if any."""
-    from ...evidence.compare import CompareSettings, compare_models
-    from ...evidence.records import Comparison
-    from ...inference.sampling import SamplerSettings
-    from ...io.paramfile import write_json
-    from ...models import build_model
+def _evidence(d: _Demo, meas, fits, cfg):
+    """Evidence of every fitted model (``be.compare``: bridge sampling on its emcee posterior, the
+    Laplace screen beside, nested sampling in the full run); models far worse than the best by their
+    least-squares residual get a short chain only. Returns the preferred model's name and the
+    comparison (``None`` when every evidence computation failed)."""
+    from ... import api as be
     from ...plotting import save_figure
     from ...plotting.evidence import plot_evidence
 
@@ -332,99 +306,78 @@ def _evidence(d: _Demo, meas, fits, cfg) -> tuple[str, Path | None]:
                               ([n for n in fits if n not in screened], cfg["max_steps"], "full")):
         if not group:
             continue
-        settings = CompareSettings(seed=d.args.seed, methods=cfg["methods"], loo=cfg["loo"],
-                                   bridge_seeds=cfg["bridge_seeds"], sampler=SamplerSettings(max_steps=steps))
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                parts.append(compare_models(meas, [(n, build_model(n)) for n in group], settings=settings,
-                                            results=work / f"comparison_{tag}.json", workdir=work,
-                                            progress=not d.args.quiet and sys.stderr.isatty(), on_model=show))
+                parts.append(be.compare(meas, group, seed=d.args.seed, methods=cfg["methods"], loo=cfg["loo"],
+                                        max_steps=steps, results=work / f"comparison_{tag}.json",
+                                        workdir=work, progress=not d.args.quiet and sys.stderr.isatty(),
+                                        on_model=show))
         except Exception as exc:  # noqa: BLE001 - an estimator failure must not lose the run
             msg = _one_line(exc)
             d.warnings.append(f"evidence of {', '.join(group)} failed ({msg}): those models are missing from "
                               "the comparison")
             d.say(f"  evidence of {', '.join(group)} FAILED: {msg}")
             failed += group
+    by_rms = min(fits, key=lambda k: fits[k].rms_rel_residual)
     if not parts:
         d.step("compare", "failed", "every evidence computation failed (see the warnings)",
                time.perf_counter() - t)
-        best = min(fits, key=lambda k: fits[k].rms_rel_residual)
-        return best, _saved_posterior(work, fits[best].model.label)
+        return by_rms, None
+    cmp = parts[0].merged(*parts[1:])
     order = {n: i for i, n in enumerate(fits)}
-    models = sorted((m for c in parts for m in c.models), key=lambda m: order.get(m.name, 99))
-    first = parts[-1]
-    cmp = Comparison(tuple(models), first.source, first.data_sha256, first.n_points, {},
-                     {"seed": d.args.seed, "methods": list(cfg["methods"]), "max_steps": cfg["max_steps"],
-                      "screen_steps": cfg["screen_steps"], "screened": screened}, ())
-    rec = cmp.to_json_dict()
-    write_json(d.out / "comparison.json", rec)
+    cmp = dataclasses.replace(cmp, models=tuple(sorted(cmp.models, key=lambda m: order.get(m.name, 99))),
+                              settings={"seed": d.args.seed, "methods": list(cfg["methods"]),
+                                        "max_steps": cfg["max_steps"], "screen_steps": cfg["screen_steps"],
+                                        "screened": screened})
+    cmp.save(d.out / "comparison.json")
     save_figure(plot_evidence(cmp), d.out / "evidence.png", dpi=100)
-    best = rec["best"] or min(fits, key=lambda k: fits[k].rms_rel_residual)
     if failed:  # the evidence cannot rank a model it did not compute: fall back to the residuals
-        best = min(fits, key=lambda k: fits[k].rms_rel_residual)
-        d.say(f"preferred: {best} (smallest least-squares residual; the evidence of {', '.join(failed)} "
+        d.say(f"preferred: {by_rms} (smallest least-squares residual; the evidence of {', '.join(failed)} "
               "failed)")
         d.step("compare", "failed", f"evidence failed for {', '.join(failed)}; preferred model by "
                "least-squares residual", time.perf_counter() - t)
-    else:
-        d.say(f"preferred: {best} ({rec['best_verdict'] or 'no verdict'})")
-        d.step("compare", "ran", f"{', '.join(cfg['methods'])} for {', '.join(fits)}",
-               time.perf_counter() - t)
-    post_nc = None
-    for m in cmp.models:
-        if m.name == best:
-            stem = "".join(c if c.isalnum() else "_" for c in m.label)
-            cand = work / f"{stem}_{m.key[:8]}_posterior.nc"
-            post_nc = cand if cand.is_file() else None
-    if best not in {m.name for m in cmp.models}:
-        post_nc = _saved_posterior(work, fits[best].model.label)
-    return best, post_nc
+        return by_rms, cmp
+    best = cmp.best or by_rms
+    d.say(f"preferred: {best} ({cmp.to_json_dict()['best_verdict'] or 'no verdict'})")
+    d.step("compare", "ran", f"{', '.join(cfg['methods'])} for {', '.join(fits)}", time.perf_counter() - t)
+    return best, cmp
 
 
-def _saved_posterior(work: Path, label: str) -> Path | None:
-    """The newest posterior the evidence step saved for the model ``label`` (its emcee run may have
-    finished although a later estimator failed)."""
-    stem = "".join(c if c.isalnum() else "_" for c in label)
-    found = sorted(work.glob(f"{stem}_*_posterior.nc"), key=lambda p: p.stat().st_mtime)
-    return found[-1] if found else None
-
-
-def _posterior(d: _Demo, nc: Path | None, preferred: str, fit_warnings=()) -> Path | None:
-    """The preferred model's posterior (the emcee run its evidence used): summary, netCDF, figures;
-    its JSON carries the preferred fit's warnings (the walkers start from that fit) and
-    ``not_converged`` when the chain missed its rule."""
-    import shutil
-
-    from ...api import read_posterior
+def _posterior(d: _Demo, cmp, preferred: str, fits):
+    """The preferred model's posterior (the emcee run its evidence used, ``be.load``): summary,
+    netCDF, figures; its JSON carries the preferred fit's warnings (the walkers start from that fit)
+    and ``not_converged`` when the chain missed its rule."""
+    from ... import api as be
     from ...io.paramfile import write_json
     from ...plotting import save_figure
     from ...plotting.posterior import plot_bode_bands, plot_corner
     from ...report.figures import corner_names
 
-    if nc is None:
+    rec = None if cmp is None else next((m for m in cmp.models if m.name == preferred), None)
+    if rec is None or not rec.posterior_file:
         d.step("sample", "failed", f"no posterior of {preferred} was saved by the evidence step")
         return None
     d.section(f"posterior of {preferred} by emcee (seed {d.args.seed})")
     t = time.perf_counter()
-    post = read_posterior(nc)
+    post = be.load(rec.posterior_file)
     state = ("converged" if post.converged else "NOT CONVERGED: " + post.message)
     d.say(f"{state}: {post.n_steps} steps x {post.n_walkers} walkers, tau_max {max(post.tau):.0f}")
-    shutil.copyfile(nc, d.out / "posterior.nc.tmp")
-    (d.out / "posterior.nc.tmp").replace(d.out / "posterior.nc")
-    warns = list(fit_warnings)
+    post.save(d.out / "posterior.nc")
+    warns = list(fits[preferred].warnings) if preferred in fits else []
     if not post.converged:
         warns.append({"code": "not_converged", "message": post.message})
     write_json(d.out / "posterior.json", {**post.to_json_dict(), "warnings": warns})
     save_figure(plot_bode_bands(post), d.out / "posterior_bode.png", dpi=100)
     save_figure(plot_corner(post, names=corner_names(post)), d.out / "posterior_corner.png", dpi=80)
     d.step("sample", "ran", f"{post.model.label}: {state}", time.perf_counter() - t)
-    return d.out / "posterior.nc"
+    return post
 
 
-def _shunts(d: _Demo, fits, preferred) -> None:
+def _shunts(d: _Demo, fits) -> None:
+    from ... import api as be
     from ...io.paramfile import write_json
-    from ...shunt import design_rc_shunt, evaluate_rc_shunt
+    from ...shunt import evaluate_rc_shunt
 
     best = min(fits, key=lambda k: fits[k].rms_rel_residual)
     d.section(f"optimal RC shunt per model; each evaluated on the best-fitting model ({best})")
@@ -434,7 +387,7 @@ def _shunts(d: _Demo, fits, preferred) -> None:
     for name, fit in fits.items():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            dsg = design_rc_shunt(fit.model, fit.theta)
+            dsg = be.design_shunt(fit)
             ev = evaluate_rc_shunt(ref.model, ref.theta, dsg.Rs, dsg.Cs)
         designs[name] = {**dsg.to_json_dict(), f"evaluated_on_{best}": ev.to_json_dict()}
         rows.append((fit.model.label, f"{dsg.Rs:.4f}", f"{dsg.Cs:.4g}", f"{dsg.attenuation_db:.2f}",
@@ -446,108 +399,70 @@ def _shunts(d: _Demo, fits, preferred) -> None:
     d.step("shunt", "ran", f"{len(designs)} designs", time.perf_counter() - t)
 
 
-def _robust(d: _Demo, post_nc, preferred, cfg) -> None:
-    from . import shunt as shunt_cmd
+def _robust(d: _Demo, post, fit, cfg) -> None:
+    from ... import api as be
+    from ...plotting import save_figure
+    from ...plotting.robust_shunt import plot_attenuation_distributions, plot_gain_bands, plot_stability_boundary
 
-    if post_nc is None:
+    if post is None:
         d.step("robust_shunt", "skipped", "no posterior")
         return
-    if not _available("bayes_emt.shunt.robust"):
-        d.step("robust_shunt", "unavailable", "the robust shunt over posterior draws (issue 12, "
-               "bayes-emt shunt --posterior) is not in this build")
-        return
-    d.section(f"robust RC shunt over {cfg['draws']} posterior draws of {preferred}")
+    d.section(f"robust RC shunt over {cfg['draws']} posterior draws of {post.model.label}")
     t = time.perf_counter()
-    argv = ["--posterior", str(post_nc), "--params", str(d.out / f"fit_{preferred}.json"),
-            "--draws", str(cfg["draws"]), "--seed", str(d.args.seed),
-            "--json", str(d.out / "robust_shunt.json"),
-            "--plot", str(d.out)]
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            rc = d.invoke(shunt_cmd, argv)
+            res = be.robust_shunt(post, nominal=fit, n_draws=cfg["draws"], seed=d.args.seed)
+        res.save(d.out / "robust_shunt.json")
+        for name, plot in (("shunt_robust_gain.png", plot_gain_bands),
+                           ("shunt_robust_distributions.png", plot_attenuation_distributions),
+                           ("shunt_robust_boundary.png", plot_stability_boundary)):
+            save_figure(plot(res), d.out / name, dpi=100)
     except Exception as exc:  # noqa: BLE001 - a feature step that fails must not lose the rest of the run
-        msg = _one_line(exc)
-        d.step("robust_shunt", "failed", f"bayes-emt shunt {' '.join(argv)}: {msg}", time.perf_counter() - t)
-        d.warnings.append(f"robust shunt failed: {msg}")
+        d.failed("robust_shunt", exc, t)
         return
-    _print_robust(d)
-    d.step("robust_shunt", "ran", f"{cfg['draws']} draws" + ("" if rc == 0 else "; no robust shunt found"),
-           time.perf_counter() - t)
+    d.say(res.summary())
+    d.step("robust_shunt", "ran", f"{cfg['draws']} draws", time.perf_counter() - t)
 
 
-def _print_robust(d: _Demo) -> None:
-    import json
-
-    p = d.out / "robust_shunt.json"
-    if not p.is_file():
-        return
-    rec = json.loads(p.read_text())
-    def num(x, spec):
-        return "-" if not isinstance(x, int | float) else format(x, spec)
-
-    for name in ("nominal", "robust"):
-        s = rec.get(name) or {}
-        att = s.get("attenuation_db") or {}
-        d.say(f"  {name}: Rs = {num(s.get('Rs'), '.5f')} ohm, Cs = {num(s.get('Cs'), '.4g')} F, attenuation "
-              f"median {num(att.get('median'), '.3f')} dB (worst 5 %: {num(att.get('q95'), '.3f')} dB), "
-              f"P(unstable) {num(s.get('p_unstable'), '.3g')}")
-
-
-def _diagnose(d: _Demo, meas, path: Path, model: str) -> None:
+def _diagnose(d: _Demo, meas, model: str) -> None:
     """Diagnose the concealed-effect recording, starting from ``model`` (the one the evidence
     preferred on the main recording, the same device), and draw its residuals with the flagged
     bands."""
-    import json
-
-    from ...api import as_model
-    from ...estimation.fitting import fit_admittance
+    from ... import api as be
     from ...plotting import save_figure
+    from ...plotting.discovery import plot_bode_overlay
+    from ...plotting.discovery import plot_residuals as plot_diagnosis
     from ...plotting.residuals import plot_residuals
 
     d.section(f"discrepancy diagnosis of {meas.source}")
     t = time.perf_counter()
-    diag_json = d.out / "diagnosis.json"
-    if _available("bayes_emt.cli.commands.diagnose"):
-        from . import diagnose as diagnose_cmd  # type: ignore[attr-defined]
-
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fit = be.fit(meas, model)
+            # no time budget: the diagnosis must not depend on how fast or busy the machine is (under
+            # load the default 240 CPU s ran out before second_resonance was tried)
+            diag = be.diagnose(meas, fit=fit, seed=d.args.seed, max_rounds=1 if d.args.quick else 4,
+                               time_budget=None,
+                               progress=None if d.args.quiet else (lambda msg: d.say("  " + msg)))
+        diag.save(d.out / "diagnosis.json")
         folder = d.out / "diagnosis"
         folder.mkdir(exist_ok=True)
-        # no time budget: the diagnosis must not depend on how fast or busy the machine is (under
-        # load the default 240 CPU s ran out before second_resonance was tried)
-        argv = [str(path), "--model", model, "--json", str(diag_json), "--plot", str(folder),
-                "--seed", str(d.args.seed), "--time-budget", "0"]
-        if d.args.quick:
-            argv += ["--max-rounds", "1"]
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                d.invoke(diagnose_cmd, argv)
-            d.step("diagnose", "ran", str(meas.source), time.perf_counter() - t)
-        except Exception as exc:  # noqa: BLE001 - a feature step that fails must not lose the rest of the run
-            msg = _one_line(exc)
-            d.step("diagnose", "failed", f"bayes-emt diagnose {' '.join(argv)}: {msg}",
-                   time.perf_counter() - t)
-            d.warnings.append(f"diagnosis failed: {msg}")
-    else:
-        d.step("diagnose", "unavailable", "discrepancy discovery (issue 13, bayes-emt diagnose) is not in "
-               "this build; the concealed recording's residuals are shown without flagged bands")
-    bands = []
-    if diag_json.is_file():
-        rec = json.loads(diag_json.read_text())
-        for f in rec.get("findings", []):
-            if f.get("band_hz"):
-                bands.append((*f["band_hz"], f"{f.get('physics')} (found)"))
-                d.say(f"  finding: {f.get('explanation') or f.get('physics')}")
-        for u in rec.get("unexplained", []):
-            if u.get("band_rad_s"):
-                lo, hi = (b / (2 * math.pi) for b in u["band_rad_s"])
-                bands.append((lo, hi, "unexplained"))
-        if not rec.get("findings"):
-            d.say("  no significant mismatch found")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        fit = fit_admittance(meas, as_model(model))
+        save_figure(plot_diagnosis(diag, meas), folder / "residuals.png")
+        save_figure(plot_bode_overlay(diag, meas), folder / "bode.png")
+    except Exception as exc:  # noqa: BLE001 - a feature step that fails must not lose the rest of the run
+        d.failed("diagnose", exc, t)
+        return
+    d.step("diagnose", "ran", str(meas.source), time.perf_counter() - t)
+    for f in diag.findings:
+        d.say(f"  finding: {f.explanation}")
+    if not diag.findings:
+        d.say("  no significant mismatch found")
+    bands = [(f.band.lo / (2 * math.pi), f.band.hi / (2 * math.pi), f"{f.physics} (found)")
+             for f in diag.findings]
+    bands += [(u["band_rad_s"][0] / (2 * math.pi), u["band_rad_s"][1] / (2 * math.pi), "unexplained")
+              for u in diag.unexplained if u.get("band_rad_s")]
     save_figure(plot_residuals(meas, {f"{fit.model.label} fit": (fit.model, fit.theta)}, bands_hz=bands,
                                title=f"{meas.source}: residuals of the {fit.model.label} fit"
                                      + ("; flagged bands shaded" if bands else "")),
