@@ -116,14 +116,14 @@ def test_diagnose_command_writes_json_and_figures(tmp_path, capsys):
 def test_a_final_model_that_moves_r0_by_more_than_five_percent_is_warned_about():
     # On the real LS10-44 run2 recordings the diagnosis moved R0 by -17 % (scripts/results/
     # discovery_realdata/table.md); a negative-resistance shunt cancels most of R0, so a move that
-    # size must be said. Stand-in fits: only .parameters and .model.label are read.
-    from types import SimpleNamespace
-
+    # size must be said.
     from bayes_emt.discovery.diagnose import R0_MOVE_WARN, r0_move_warning
+    from bayes_emt.estimation.results import FitResult
 
     def fit(r0, label):
-        return SimpleNamespace(parameters={"R0": r0, "zeta": 0.1, "omega0": 300.0, "phi": 5.0},
-                               model=SimpleNamespace(label=label))
+        model = parse_model_spec(label)
+        values = {n: 1e-3 for n in model.names} | {"R0": r0, "zeta": 0.1, "omega0": 300.0, "phi": 5.0}
+        return FitResult(model, model.vector(values), None, 0.0, 0.0, 10)
 
     assert R0_MOVE_WARN == 0.05
     w = r0_move_warning(fit(8.608, "UD"), fit(7.153, "NL(3)+second_resonance"))

@@ -402,7 +402,11 @@ def _shunts(d: _Demo, fits) -> None:
 def _robust(d: _Demo, post, fit, cfg) -> None:
     from ... import api as be
     from ...plotting import save_figure
-    from ...plotting.robust_shunt import plot_attenuation_distributions, plot_gain_bands, plot_stability_boundary
+    from ...plotting.robust_shunt import (
+        plot_attenuation_distributions,
+        plot_gain_bands,
+        plot_stability_boundary,
+    )
 
     if post is None:
         d.step("robust_shunt", "skipped", "no posterior")
