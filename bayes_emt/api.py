@@ -94,7 +94,8 @@ def compare(meas: Measurement | str | Path, models: Sequence[str | Model] = ("I"
             *, seed: int = 0, methods: Sequence[str] = ("laplace", "bridge", "nested"),
             rings: Sequence[int] | str | None = None, max_steps: int | None = None,
             nested: NestedSettings | None = None, nested_prior: str = "posterior", nested_repeats: int = 1,
-            loo: bool = True, results: str | Path | None = None, workdir: str | Path | None = None,
+            loo: bool = True, sensitivity: bool = True, results: str | Path | None = None,
+            workdir: str | Path | None = None,
             progress: bool = False, on_model=None) -> Comparison:
     """Evidence of each model (spec strings or Models): log Z by bridge sampling on its emcee
     posterior and by nested sampling (its prior repartitioned onto those draws), Laplace beside,
@@ -115,7 +116,7 @@ def compare(meas: Measurement | str | Path, models: Sequence[str | Model] = ("I"
     sampler = SamplerSettings() if max_steps is None else SamplerSettings(max_steps=int(max_steps))
     settings = CompareSettings(seed=seed, methods=tuple(methods), sampler=sampler,
                                nested=nested or NestedSettings(), nested_prior=nested_prior,
-                               nested_repeats=nested_repeats, loo=loo)
+                               nested_repeats=nested_repeats, loo=loo, sensitivity=sensitivity)
     cmp = compare_models(meas, specs, settings=settings, results=results, workdir=workdir, progress=progress,
                          on_model=on_model)
     if ringed and counts is not None and len(counts) > 1:

@@ -9,20 +9,13 @@
 # keeps one only when the evidence rises and the new parameters are determined by the data.
 
 # %%
-from bayes_emt.discovery import diagnose
-from bayes_emt.io.datasets import load_concealed_bench
-from bayes_emt.models import build_model
+import bayes_emt as be
 
-meas = load_concealed_bench()
-d = diagnose(meas, build_model("NL", rings=5), seed=0, max_rounds=1)
-print(f"start {d.baseline_model}: rms relative residual {100 * d.baseline_fit.rms_rel_residual:.3f} %")
-print(f"final {d.final_model}: rms relative residual {100 * d.final_fit.rms_rel_residual:.3f} %")
+meas = be.load_concealed_bench()
+d = be.diagnose(meas, "NL(5)", seed=0, max_rounds=1)
+print(d.summary())
 for f in d.findings:
     print(f"finding: {f.physics}: {f.explanation}")
-for u in d.unexplained:
-    print("unexplained:", u["description"])
-if not d.findings and not d.unexplained:
-    print("no significant mismatch")
 
 # %% [markdown]
 # `final_model` is a model spec: `bayes-emt fit concealed_bench.csv --model NL+second_resonance`,

@@ -15,13 +15,9 @@
 # %%
 import warnings
 
-from bayes_emt.api import as_model
-from bayes_emt.evidence import CompareSettings, compare_models
-from bayes_emt.inference.sampling import sample_posterior
-from bayes_emt.io.datasets import load_paper_bench
-from bayes_emt.shunt import design_robust_shunt, sample_mixture
+import bayes_emt as be
 
-meas = load_paper_bench()
+meas = be.load_paper_bench()
 print(f"{meas.n_points} points, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz")
 
 # %% [markdown]
@@ -30,34 +26,17 @@ print(f"{meas.n_points} points, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz")
 # mode; tens of seconds per model here).
 
 # %%
-specs = [(name, as_model(name)) for name in ("I", "UD", "NL")]
-settings = CompareSettings(methods=("laplace", "bridge"), loo=False, sensitivity=False, seed=1)
 with warnings.catch_warnings():
     warnings.simplefilter("ignore")
-    cmp = compare_models(meas, specs, settings=settings)
-for m in cmp.models:
-    print(f"{m.label:6s} log Z = {m.log_evidence:12.2f} ± {m.log_evidence_err:.2f} nats  "
-          "(by method: " + ", ".join(f"{k} {v['log_evidence']:.2f}" for k, v in m.by_method.items()
-                                     if v.get("log_evidence") is not None) + ")")
+    cmp = be.compare(meas, ["I", "UD", "NL(5)"], methods=("laplace", "bridge"), loo=False, sensitivity=False,
+                     seed=1)
+print(cmp.summary())
 print("preferred:", cmp.best)
-for pair, ln_b in cmp.bayes_factors().items():
-    print(f"ln B {pair}: {ln_b:.1f} nats")
-for w in cmp.all_warnings():
-    print("warning:", w)
 
 # %% [markdown]
 # ## The robust shunt over the preferred model's posterior
 
 # %%
-nl = as_model("NL")
-posterior = sample_posterior(meas, nl, seed=1, progress=False)
-groups, notes = sample_mixture([(nl, posterior.theta(), "bundled NL(5)")], [1.0], 1000, seed=0)
-rob = design_robust_shunt(groups, risk="cvar", alpha=0.9, epsilon=1e-3, seed=0, notes=notes)
-rep = rob.to_json_dict()
-for name in ("nominal", "robust"):
-    r = rep[name]
-    att = r["attenuation_db"]
-    print(f"{name:8s} Rs {r['Rs']:.5f} ohm  Cs {r['Cs']:.5g} F  attenuation median {att['median']:.3f} dB "
-          f"(worst 5 %: {att['q95']:.3f} dB)  P(unstable) {r['p_unstable']:.3g} "
-          f"(95 % interval {r['p_unstable_ci'][0]:.3g}..{r['p_unstable_ci'][1]:.3g})")
-print("why:", rep["why"]["text"] if isinstance(rep.get("why"), dict) else rep.get("why"))
+posterior = be.sample(meas, "NL(5)", seed=1, progress=False)
+rob = be.robust_shunt(posterior, n_draws=1000, seed=0)
+print(rob.summary())

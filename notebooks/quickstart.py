@@ -15,11 +15,10 @@ import warnings
 import numpy as np
 
 import bayes_emt as be
-from bayes_emt.io.datasets import load_paper_bench
 
 MAX_STEPS = 200  # a demonstration budget; None runs to the convergence rule
 
-meas = load_paper_bench()
+meas = be.load_paper_bench()
 print(f"{meas.n_points} points, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz "
       f"({meas.omega[0]:.4g}..{meas.omega[-1]:.4g} rad/s)")
 
@@ -30,10 +29,7 @@ print(f"{meas.n_points} points, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz "
 
 # %%
 fit = be.fit(meas, "UD")
-units = dict(zip(fit.model.names, fit.model.params.units, strict=True))
-for name, value in fit.parameters.items():
-    print(f"{name:7s} {value:11.4g} ± {fit.stderr[name]:.2g} {units[name]}")
-print(f"rms relative residual {fit.rms_rel_residual:.4f}")
+print(fit.summary())
 
 # %% [markdown]
 # ## The posterior by emcee, started from the fit
@@ -41,12 +37,11 @@ print(f"rms relative residual {fit.rms_rel_residual:.4f}")
 # %%
 with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always")
-    post = be.sample(meas, "UD", fit=fit, seed=1, max_steps=MAX_STEPS, progress=False)
+    post = be.sample(meas, fit=fit, seed=1, max_steps=MAX_STEPS, progress=False)
 print(("converged: " if post.converged else "NOT converged: ") + post.message)
 for w in caught:
     print("warning:", w.message)
-for r in post.summary_rows():
-    print(f"{r['name']:7s} median {r['median']:11.4g}  90 % interval [{r['q05']:.4g}, {r['q95']:.4g}] {r['unit']}")
+print(post.summary())
 
 # %% [markdown]
 # ## The optimal RC shunt for the fitted model (SPEC §4)

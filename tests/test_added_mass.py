@@ -6,7 +6,6 @@ import math
 import warnings
 from decimal import Decimal
 from itertools import product
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -27,7 +26,6 @@ from bayes_emt.io import write_measurement
 from bayes_emt.models import Model, make_term
 from bayes_emt.reference import PAPER_ADDED_MASS, PAPER_PHYSICAL, PAPER_TABLES
 
-REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata"
 TRUE = {"m": 1.73, "c": 1.92, "k": 4470.0, "phi_raw": 2.51}  # Table B.9, used as a known truth
 
 
@@ -233,15 +231,11 @@ def test_joint_fit_standard_errors_cover_the_truth():
 
 # ---- real data ---------------------------------------------------------------------------------
 
-@pytest.mark.skipif(not (REAL / "dayton_LS10-44_freeair_run2.txt").exists(),
-                    reason="../shared/realdata absent")
-def test_real_added_mass_pair_is_plausible():
+def test_real_added_mass_pair_is_plausible(real_recording):
     # Dayton LS10-44 10" subwoofer, free air and with 0.100 kg on the cone (realdata/README.md);
     # Hz and radians; very noisy above 1 kHz, so fitted over 10 Hz..1 kHz with the UD coil
-    from bayes_emt.io.datasets import load_realdata
-
-    b = load_realdata(REAL, "dayton_LS10-44_freeair_run2.txt")
-    ld = load_realdata(REAL, "dayton_LS10-44_added100g_run2.txt")
+    b = real_recording("dayton_LS10-44_freeair_run2.txt")
+    ld = real_recording("dayton_LS10-44_added100g_run2.txt")
     r = fit_added_mass(b, ld, 0.100, build_model("UD"))
     print({k: f"{r.values[k]:.4g} ± {r.stderr[k]:.2g}" for k in PHYSICAL_NAMES},
           {k: f"{r.two_fit[k]:.4g}" for k in PHYSICAL_NAMES}, r.consistency, r.rms_rel_residual)

@@ -10,7 +10,6 @@ determine gets ``not_identifiable``); and each code's own trigger.
 import json
 import math
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,10 +18,8 @@ from vented_box import VENTED_CASES, simulate_vented_box
 from bayes_emt import build_model, simulate
 from bayes_emt.estimation.adequacy import RHO_CRIT, Z_CRIT, assess_fit, residual_structure
 from bayes_emt.estimation.fitting import fit_admittance
-from bayes_emt.io.datasets import load_paper_bench, load_realdata
+from bayes_emt.io.datasets import load_paper_bench
 from bayes_emt.reference import PAPER_TABLES
-
-REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata"
 
 
 def _fit(meas, model, **kw):
@@ -127,11 +124,10 @@ def test_the_same_driver_in_free_air_is_not_flagged():
 
 # ---- acceptance: rings the data cannot determine ---------------------------------------------------
 
-@pytest.mark.skipif(not REAL.exists(), reason="../shared/realdata not present")
-def test_real_free_air_woofer_with_nl5_rings_are_not_identifiable():
+def test_real_free_air_woofer_with_nl5_rings_are_not_identifiable(real_recording):
     # the LS10-44 free-air recording (run2, 10 Hz-1 kHz): NL(5)'s ring standard errors are orders
     # of magnitude above their values
-    fit = _fit(load_realdata(REAL, "dayton_LS10-44_freeair_run2.txt"), build_model("NL", rings=5))
+    fit = _fit(real_recording("dayton_LS10-44_freeair_run2.txt"), build_model("NL", rings=5))
     assert "not_identifiable" in fit.warning_codes
     msg = next(w["message"] for w in fit.warnings if w["code"] == "not_identifiable")
     assert "R1" in msg and "use fewer rings than 5" in msg

@@ -15,7 +15,6 @@ from bayes_emt.reference import PAPER_TABLES
 
 HERE = Path(__file__).parent
 MALFORMED = HERE / "malformed"
-REAL = HERE.parent.parent / "shared" / "realdata"
 
 # file -> a distinctive part of its one-line message (with the line number where one applies)
 CORPUS = {
@@ -408,11 +407,10 @@ REAL_FILES = {
 }
 
 
-@pytest.mark.skipif(not REAL.exists(), reason="../shared/realdata not present")
 @pytest.mark.parametrize("name", sorted(REAL_FILES))
-def test_real_recordings_read(name):
+def test_real_recordings_read(name, realdata):
     kw, n, first, last = REAL_FILES[name]
-    m = read_measurement(REAL / name, **kw)
+    m = read_measurement(realdata / name, **kw)
     assert m.n_points == n
     for i, (f, absz, deg) in ((0, first), (-1, last)):
         assert m.f_hz[i] == pytest.approx(f, rel=1e-12)
@@ -421,9 +419,8 @@ def test_real_recordings_read(name):
     assert m.meta["quantity"] == "Z" and m.meta["freq_unit"] == "hz"
 
 
-@pytest.mark.skipif(not REAL.exists(), reason="../shared/realdata not present")
-def test_radian_phase_file_needs_frequency_unit(capsys):
-    path = REAL / "dayton_LS10-44_freeair_run2.txt"
+def test_radian_phase_file_needs_frequency_unit(capsys, realdata):
+    path = realdata / "dayton_LS10-44_freeair_run2.txt"
     with pytest.raises(DataFormatError, match=r"run2.txt:1: header .* does not say whether frequencies are "
                                               r"in Hz or rad/s; pass --freq-unit hz\|rad/s"):
         read_measurement(path)

@@ -177,11 +177,3 @@ def test_with_term_and_priors_compose():
     assert tight.params["R0"].prior.upper == 3 and tight.names == model.names
     with pytest.raises(KeyError, match="unknown parameter"):
         model.with_priors({"nope": {"dist": "uniform", "lower": 0, "upper": 1}})
-
-
-def test_walkthrough_notebook_runs():
-    # notebooks/walkthrough.py (percent format) must stay runnable as the API evolves
-    import runpy
-    from pathlib import Path
-
-    runpy.run_path(str(Path(__file__).resolve().parents[1] / "notebooks" / "walkthrough.py"))

@@ -53,6 +53,8 @@ def test_notebook_runs(name, monkeypatch):
     client.execute()  # raises CellExecutionError, naming the cell, on any exception
     text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs)
     assert text.strip(), "the notebook printed nothing"
+    if name == "walkthrough":
+        assert "rms relative residual" in text and "Rs =" in text and "unstable below" in text
     if name == "quickstart":
         assert "ohm" in text and "rad/s" in text and "Hz" in text and "NOT converged" in text
     if name == "evidence_and_robust_shunt":

@@ -7,7 +7,6 @@ The recordings are read from ../shared/realdata (never copied here); bands per i
 import json
 import math
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,16 +14,13 @@ import pytest
 from bayes_emt import build_model
 from bayes_emt.cli import main
 from bayes_emt.estimation.fitting import fit_admittance
-from bayes_emt.io.datasets import REALDATA_FILES, load_realdata
+from bayes_emt.io.datasets import REALDATA_FILES
 from bayes_emt.models import MODEL_NAMES
-
-REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata"
-pytestmark = pytest.mark.skipif(not REAL.exists(), reason="../shared/realdata not present")
 
 
 @pytest.mark.parametrize("name", sorted(REALDATA_FILES))
-def test_every_model_fits_every_recording(name):
-    meas = load_realdata(REAL, name)
+def test_every_model_fits_every_recording(name, real_recording):
+    meas = real_recording(name)
     rms = {}
     for m in MODEL_NAMES:
         model = build_model(m)
@@ -43,9 +39,9 @@ def test_every_model_fits_every_recording(name):
     assert rms["NL"] < 0.05 and max(rms.values()) < 0.4
 
 
-def test_cli_fits_a_recording(tmp_path, capsys):
+def test_cli_fits_a_recording(tmp_path, capsys, realdata):
     out = tmp_path / "fit.json"
-    rc = main(["fit", str(REAL / "dayton_LS10-44_freeair_run2.txt"), "--model", "UD", "--freq-unit", "hz",
+    rc = main(["fit", str(realdata / "dayton_LS10-44_freeair_run2.txt"), "--model", "UD", "--freq-unit", "hz",
                "--omega-max", str(2 * math.pi * 1000), "--json", str(out)])
     assert rc == 0
     rec = json.loads(out.read_text())
