@@ -9,8 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayes_emt.io import load_paper_bench
-from bayes_emt.io.datasets import load_realdata
+from bayes_emt.io.datasets import load_paper_bench, load_realdata
 from bayes_emt.io.simulate import simulate
 from bayes_emt.models import parse_model_spec
 

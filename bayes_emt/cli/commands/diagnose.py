@@ -55,7 +55,6 @@ def register(sub) -> None:
 def run(args) -> int:
     from ...discovery import diagnose
     from ...io import read_measurement
-    from ...io.paramfile import write_json
     from ..paths import check_outputs
     from ._common import model_from_args
 
@@ -92,7 +91,7 @@ def run(args) -> int:
     for w in d.warnings:
         print("warning: " + w)
     if args.json:
-        write_json(args.json, d.to_json_dict())
+        d.save(args.json)
         print(f"wrote {args.json}")
     if args.plot:
         from ...plotting import save_figure

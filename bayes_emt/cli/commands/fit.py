@@ -87,6 +87,7 @@ def run(args) -> int:
         print("note: the procedures disagree on R0 by more than 1 %: the coil model may miss physics; a "
               "negative-resistance shunt's stability depends on R0 (shunt --posterior reports by how much)")
     if args.json:
-        write_json(args.json, {**fit.to_json_dict(), "procedure": args.procedure, "R0_by_procedure": r0})
+        write_json(args.json, {"kind": fit.kind, **fit.to_json_dict(), "procedure": args.procedure,
+                               "R0_by_procedure": r0})
         note(args, f"wrote {args.json}")
     return 0
