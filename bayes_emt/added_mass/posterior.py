@@ -171,7 +171,7 @@ def _mechanics(model: Model, theta) -> dict[str, np.ndarray]:
     return {"zeta": np.asarray(z, float), "omega0": np.asarray(w, float), "phi": np.asarray(p, float)}
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class AddedMassPosterior(Posterior):
     """Posterior draws of an added-mass pair (:class:`Posterior` with an
     :class:`AddedMassLikelihood`): the physical ``m, c, k, phi_raw``, the shared coil parameters

@@ -27,7 +27,6 @@ from ._common import (
     int_at_least,
     model_from_args,
     note,
-    print_table,
     print_warnings,
     seed,
 )
@@ -91,8 +90,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    import numpy as np
-
     from ...added_mass.fit import PHYSICAL_NAMES
     from ...errors import DataFormatError
     from ...estimation.fitting import fit_admittance
@@ -176,13 +173,7 @@ def run(args) -> int:
         detail(args, f"check at step {v['step']}: tau_max {v['tau_max']:.0f}, "
                      f"chain {v['n_over_tau']:.1f} tau, tau change {v['tau_change']:.3g}, "
                      f"min ESS {v['ess_min']:.0f}")
-    rows = [(r["name"], f"{r['median']:.5g}", f"{r['q05']:.5g}", f"{r['q95']:.5g}", f"{r['ess']:.0f}",
-             f"{r['tau']:.0f}", r["unit"]) for r in post.summary_rows()]
-    units = post.derived_units()
-    for name, vals in post.derived().items():
-        q = np.quantile(vals, [0.5, 0.05, 0.95])
-        rows.append((f"{name} (derived)", f"{q[0]:.5g}", f"{q[1]:.5g}", f"{q[2]:.5g}", "", "", units[name]))
-    print_table(rows, ("parameter", "median", "5 %", "95 %", "ESS", "tau", "unit"))
+    print(post.summary(), end="")
     if not post.converged:
         warns.append({"code": "not_converged", "message": post.message})
     print_warnings(warns)
