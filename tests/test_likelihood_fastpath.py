@@ -13,8 +13,8 @@ from bayes_emt.inference.fastpath import JwPlan
 from bayes_emt.inference.likelihood import Likelihood
 from bayes_emt.inference.noise import SERIES_X
 from bayes_emt.measurement import Measurement
-from bayes_emt.models import MODEL_NAMES, Term
-from bayes_emt.models.term import specs
+from bayes_emt.models import MODEL_NAMES, Term, param_spec
+from bayes_emt.params import ParamSet
 from bayes_emt.reference import PAPER_TABLES
 
 OMEGA = np.geomspace(10, 1e5, 300)
@@ -97,7 +97,7 @@ class _NoKernel(Term):
 
     @classmethod
     def default_params(cls):
-        return specs("Cp")
+        return ParamSet([param_spec("Cp")])
 
     def evaluate(self, s, v, other):
         return s * v[:, 0:1]

@@ -78,12 +78,13 @@ def test_readme_prior_table_is_the_catalogue():
     import re
     from pathlib import Path
 
+    from bayes_emt.added_mass.fit import PHYSICAL_PARAMS
     from bayes_emt.inference.likelihood import NOISE_PARAMS, NU_SPEC
-    from bayes_emt.params import default_spec
+    from bayes_emt.models import param_spec
 
     text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
     table = text.split("## Default priors", 1)[1].split("\n## ", 1)[0]
-    noise = {s.name: s for s in NOISE_PARAMS} | {"nu": NU_SPEC}
+    noise = {s.name: s for s in (*NOISE_PARAMS, *PHYSICAL_PARAMS)} | {"nu": NU_SPEC}
     seen = set()
     for line in table.splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
@@ -92,7 +93,7 @@ def test_readme_prior_table_is_the_catalogue():
             if not m or "/" in names:
                 continue
             for name in (n.strip() for n in names.split(",")):
-                spec = noise[name] if name in noise else default_spec(name.replace("j", "1"))
+                spec = noise[name] if name in noise else param_spec(name.replace("j", "1"))
                 d = spec.prior.to_dict()
                 assert d["dist"] == "loguniform", name
                 assert (d["lower"], d["upper"]) == (float(m.group(1)), float(m.group(2))), name
@@ -105,13 +106,13 @@ def test_coil_resistance_is_not_a_ring():
     # regression: "R0" matched the ring pattern R<j> and got ring 0's prior (1e-12..100 ohm,
     # "eddy-current resistance of core ring 0"), capping the coil's DC resistance at 100 ohm
     from bayes_emt import build_model
-    from bayes_emt.params import default_spec
+    from bayes_emt.models import param_spec
 
     for name in ("I", "II", "III", "UD", "NL", "UL"):
         spec = build_model(name).params["R0"]
         assert spec.description == "coil DC resistance" and spec.unit == "ohm"
         assert spec.prior.to_dict() == {"dist": "loguniform", "lower": 1e-3, "upper": 1e4}
-    assert default_spec("R1").description == "eddy-current resistance of core ring 1"
-    assert default_spec("P10").description == "permeance of core ring 10"
+    assert param_spec("R1").description == "eddy-current resistance of core ring 1"
+    assert param_spec("P10").description == "permeance of core ring 10"
     with pytest.raises(KeyError):
-        default_spec("P0")
+        param_spec("P0")

@@ -32,13 +32,22 @@ from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import Model
 from ..models.residual import rms_relative_residual
-from ..params import ParamSet, default_spec
+from ..params import LogUniform, ParamSet, ParamSpec
 
 __all__ = ["physical_from_two_fits", "mechanics_from_physical", "fit_added_mass", "JointModel",
-           "AddedMassResult", "PHYSICAL_NAMES", "PHYSICAL_UNITS"]
+           "AddedMassResult", "PHYSICAL_NAMES", "PHYSICAL_UNITS", "PHYSICAL_PARAMS"]
 
-PHYSICAL_NAMES = ("m", "c", "k", "phi_raw")
-PHYSICAL_UNITS = {n: default_spec(n).unit for n in PHYSICAL_NAMES}
+#: the physical parameters an added-mass pair separates (SPEC §3.4), with their default priors:
+#: log-uniform over ten decades or more, bracketing a 1 cm tweeter to the paper's 2 kg shaker
+PHYSICAL_PARAMS = ParamSet([
+    ParamSpec("m", "kg", r"$m$", LogUniform(1e-6, 1e4), "moving mass"),
+    ParamSpec("c", "N s/m", r"$c$", LogUniform(1e-9, 1e6), "mechanical viscous damping"),
+    ParamSpec("k", "N/m", r"$k$", LogUniform(1e-6, 1e10), "mechanical stiffness"),
+    ParamSpec("phi_raw", "N/A", r"$\varphi$", LogUniform(1e-6, 1e4),
+              "electromechanical coupling (force factor Bl)"),
+])
+PHYSICAL_NAMES = PHYSICAL_PARAMS.names
+PHYSICAL_UNITS = dict(zip(PHYSICAL_NAMES, PHYSICAL_PARAMS.units, strict=True))
 _MECH = ("zeta", "omega0", "phi")
 
 
@@ -135,7 +144,7 @@ class JointModel:
     """Two runs of one transducer differing by a known mass ``delta_m`` [kg].
 
     The joint parameter vector is ``(m, c, k, phi_raw)`` (priors ``physical``, default
-    :func:`~bayes_emt.params.default_spec`) followed by the model's other parameters
+    :data:`PHYSICAL_PARAMS`) followed by the model's other parameters
     (``R0`` and the coil), in :attr:`params` order; :meth:`thetas` maps it (vectorised over
     leading axes) to each run's model vector ``(ζ, ω0, φ̄, R0, coil...)`` for
     :meth:`Model.admittance <bayes_emt.models.Model.admittance>`.
@@ -148,7 +157,7 @@ class JointModel:
     shared: tuple[str, ...] = field(init=False)
 
     def __post_init__(self):
-        default = ParamSet([default_spec(n) for n in PHYSICAL_NAMES])
+        default = PHYSICAL_PARAMS
         if self.physical is None:
             object.__setattr__(self, "physical", default)
         elif self.physical.names != default.names:

@@ -6,8 +6,8 @@ recordings: the base run sees the moving mass ``m``, the loaded run ``m + Δm``
 likelihood is the product of the two runs' likelihoods
 (:class:`~bayes_emt.inference.likelihood.Likelihood`, same noise model, each run with its own
 ``sigma_rel`` and ``sigma_abs``: two recordings need not share an instrument range). The priors of
-``m, c, k, phi_raw`` are log-uniform over ten decades (:func:`~bayes_emt.params.default_spec`); the
-shared parameters keep the model's priors.
+``m, c, k, phi_raw`` are log-uniform over ten decades
+(:data:`~bayes_emt.added_mass.fit.PHYSICAL_PARAMS`); the shared parameters keep the model's priors.
 
 This is stricter than pairing independent posteriors of the two runs
 (:func:`~bayes_emt.inference.posterior.physical_from_pair`, the Bayesian version of the paper's two-fit

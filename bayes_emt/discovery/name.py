@@ -7,8 +7,8 @@ For a located band (:mod:`.locate`) each candidate physics (:mod:`.candidates`) 
   the best few starts polished by :func:`~bayes_emt.estimation.fitting.fit_admittance` (whose
   resonance rule keeps ``ω0`` where the data has its resonance, so the fits compare like with
   like); the best polish counts;
-* ``eddy_current`` fits the coil models up the ladder from the data (ring count of NL by
-  evidence among them).
+* the eddy-current escalation (:data:`~bayes_emt.models.EDDY_PHYSICS`) fits the coil models up
+  the ladder from the data (ring count of NL by evidence among them).
 
 Each fit's log evidence is the Laplace screen of :mod:`bayes_emt.evidence` (the same
 approximation its comparison uses from a least-squares fit, with the noise scales as parameters),
@@ -48,7 +48,7 @@ from ..evidence.fit_evidence import Evidence, fit_log_evidence
 from ..evidence.scale import verbal
 from ..inference.likelihood import Likelihood
 from ..measurement import Measurement
-from ..models import Model, make_term
+from ..models import EDDY_PHYSICS, Model, make_term
 from ..models.residual import relative_residual, rms_relative_residual
 from .candidates import escalations
 from .locate import Band, scan_statistics
@@ -217,9 +217,9 @@ def fit_candidate(
     meas: Measurement, current: FitResult, physics: str, band: Band
 ) -> list[tuple[FitResult, Evidence]]:
     """``(fit, evidence)`` of ``physics`` added to ``current.model`` (module docstring); for
-    ``eddy_current`` one per escalated coil model. Fits that fail are left out."""
+    the eddy-current escalation one per escalated coil model. Fits that fail are left out."""
     out = []
-    if physics == "eddy_current":
+    if physics == EDDY_PHYSICS:
         # up the ladder; NL's ring count by evidence: more rings until one more ring loses
         best = -math.inf
         for model in escalations(current.model):
@@ -314,8 +314,8 @@ def rank_candidates(
                     ev.note,
                 )
             )
-    # eddy_current: keep only its best rung (the ring count by evidence)
-    best_eddy = max((c for c in out if c.physics == "eddy_current"), key=lambda c: c.log_z, default=None)
-    out = [c for c in out if c.physics != "eddy_current" or c is best_eddy]
+    # the eddy-current escalation: keep only its best rung (the ring count by evidence)
+    best_eddy = max((c for c in out if c.physics == EDDY_PHYSICS), key=lambda c: c.log_z, default=None)
+    out = [c for c in out if c.physics != EDDY_PHYSICS or c is best_eddy]
     out.sort(key=lambda c: (not c.accepted, -c.delta_log_z))
     return out

@@ -30,10 +30,7 @@ def validated(model: Model, theta) -> np.ndarray | None:
         z = model.params.to_z(theta)
     if not np.all(np.isfinite(z)):
         return None
-    lo, hi = model.params.bounds_z()
-    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
-    z = np.clip(z, lo + 1e-6 * width, hi - 1e-6 * width)
-    return model.params.from_z(z)
+    return model.params.from_z(model.params.clip_inside(z))
 
 
 def rms_rel_residual(model: Model, meas: Measurement, thetas) -> np.ndarray:

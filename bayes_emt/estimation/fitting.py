@@ -45,6 +45,7 @@ from ..errors import FitError
 from ..measurement import Measurement
 from ..models import Model
 from ..models.residual import relative_residual
+from ..params import clip_inside
 from .adequacy import assess_fit
 from .augment import augmentation_starts
 from .checks import check_fit_inputs
@@ -110,8 +111,7 @@ def batched_least_squares(fun_batch, z0, lo, hi, *, max_nfev: int, tol: float = 
             return forward_jacobian(fun_batch, z)
     else:
         raise ValueError(f"jacobian must be 'central' or 'forward', got {jacobian!r}")
-    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)  # unbounded (normal/lognormal) priors: inf - inf
-    z0 = np.clip(z0, lo + 1e-9 * width, hi - 1e-9 * width)
+    z0 = clip_inside(z0, lo, hi)
     return optimize.least_squares(fun, z0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
                                   ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
 

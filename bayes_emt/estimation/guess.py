@@ -355,14 +355,12 @@ def _consistent(meas: Measurement, model: Model, theta) -> bool:
 
 def _global_stage(meas, model, bases, rng):
     """Perturb each base in sampling space and score all in one vectorised call."""
-    lo, hi = model.params.bounds_z()
-    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
     out = []
     zs = []
     for path, band, theta in bases:
         z0 = model.params.to_z(theta)
         z = z0 + _PERTURB_SD * rng.standard_normal((_N_PERTURB, z0.size))
-        zs.append(np.clip(z, lo + 1e-6 * width, hi - 1e-6 * width))
+        zs.append(model.params.clip_inside(z))
         out += [(f"global stage around ({path})", band)] * _N_PERTURB
     thetas = model.params.from_z(np.concatenate(zs))
     return [(p, b, t) for (p, b), t in zip(out, thetas, strict=True)]

@@ -114,9 +114,8 @@ def initial_walkers(lik, fit: FitResult, nwalkers: int, rng: np.random.Generator
     _refuse_noise_priors_excluding(lik, rel[0], rms_abs)
     extra = [math.log(10.0)] if lik.sample_nu else []
     starts = np.array([np.r_[z0, rel, extra], np.r_[z0, floor, extra]])
-    lo, hi = lik.params.bounds_z()
-    span = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
-    starts = np.clip(starts, lo + 1e-9 * span, hi - 1e-9 * span)
+    starts = lik.params.clip_inside(starts)
+    lo = lik.params.bounds_z()[0]
     k = z0.size
     full = np.zeros((lik.ndim, lik.ndim))
     full[:k, :k] = cov
@@ -213,8 +212,7 @@ def start_ball(target, z0, cov, centre, spread, nwalkers: int, rng: np.random.Ge
         cand = np.hstack([zm, zn])
         for i, (a, b) in (uniform or {}).items():
             cand[:, i] = rng.uniform(a, b, size=n)
-        span = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
-        cand = np.clip(cand, lo + 1e-9 * span, hi - 1e-9 * span)
+        cand = target.params.clip_inside(cand)
         lp = target.log_posterior_z(cand)
         keep = np.flatnonzero(np.isfinite(lp))[:n]
         good = cand[keep]

@@ -1,8 +1,15 @@
 """The paper's terms: the motional branch, the coil resistance and the coil models (SPEC §1–2).
 
-Each coil term carries its own start (:class:`~bayes_emt.models.term.CoilStart`: the columns and
-the one nonlinear parameter the linear coil stage of the initial estimate scans), its Foster form
-and its serialised id; the augmentations of SPEC §7 live in :mod:`bayes_emt.models.augmentations`.
+Each coil term carries its parameters with their priors, its own start
+(:class:`~bayes_emt.models.term.CoilStart`: the columns and the one nonlinear parameter the linear
+coil stage of the initial estimate scans), its Foster form and its serialised id; the augmentations
+of SPEC §7 live one per module in :mod:`bayes_emt.models.physics`. The six base models are made of
+these terms (:data:`~bayes_emt.models.registry.BASE_MODELS`), several sharing a parameter (``L0``,
+``Lg``, ``alpha``, ``beta``): each such spec is declared once here.
+
+Priors are proper, log-uniform over wide decade ranges that bracket every transducer from a 1 cm
+tweeter to the paper's 2 kg shaker, and identical for a name whatever the model, so that evidences
+of different models are comparable (shared parameters' prior volumes cancel in a Bayes factor).
 """
 
 from __future__ import annotations
@@ -13,12 +20,30 @@ from typing import ClassVar
 import numpy as np
 from scipy import special
 
+from ..params import LogUniform, ParamSet, ParamSpec
 from . import terms as T
 from .linearise import lossy_inductance_linear, rational_alpha
-from .term import CoilStart, FosterPart, Term, col, specs
+from .term import CoilStart, FosterPart, Term, col, indexed
 
 __all__ = ["Motional", "Resistance", "Inductance", "GapInductance", "LossyInductance", "BesselEddy",
            "RingLadder", "UniformRings", "bessel_sections"]
+
+ZETA = ParamSpec("zeta", "1", r"$\zeta$", LogUniform(1e-5, 2.0), "mechanical damping ratio")
+OMEGA0 = ParamSpec("omega0", "rad/s", r"$\omega_0$", LogUniform(1e-1, 1e6),
+                   "mechanical natural angular frequency")
+PHI = ParamSpec("phi", "N/(A kg^0.5)", r"$\bar\varphi$", LogUniform(1e-3, 1e4),
+                "mass-normalised electromechanical coupling phi/sqrt(m)")
+R0 = ParamSpec("R0", "ohm", r"$R_0$", LogUniform(1e-3, 1e4), "coil DC resistance")
+L0 = ParamSpec("L0", "H", r"$L_0$", LogUniform(1e-8, 1e1), "coil self-inductance")
+RMU = ParamSpec("Rmu", "ohm", r"$R_\mu$", LogUniform(1e-3, 1e5), "lumped eddy-current loss resistance")
+ALPHA = ParamSpec("alpha", "s", r"$\alpha$", LogUniform(1e-10, 1e2), "eddy-current diffusion time constant")
+BETA = ParamSpec("beta", "H s^-0.5", r"$\beta$", LogUniform(1e-6, 1e4), "semi-inductance scale")
+LG = ParamSpec("Lg", "H", r"$L_g$", LogUniform(1e-9, 1e1), "air-gap inductance")
+PG = ParamSpec("Pg", "H", r"$P_g$", LogUniform(1e-16, 1e-2), "air-gap permeance (per turn squared)")
+#: ring j = 1..n of NL's core (indexed specs: ``P3``, ``R3``; ``R0`` is the coil, not a ring)
+P_RING = ParamSpec("P{j}", "H", r"$P_{j}$", LogUniform(1e-16, 1e-2), "permeance of core ring {j}")
+R_RING = ParamSpec("R{j}", "ohm", r"$R_{j}$", LogUniform(1e-12, 1e2),
+                   "eddy-current resistance of core ring {j}")
 
 _EDDY = "eddy currents in the pole and core (excess real part and phase deficit rising with frequency)"
 
@@ -37,9 +62,7 @@ class Motional(Term):
     description = "moving mass on a spring with viscous damping, coupled by phi (eq. 47)"
     signature = "the impedance peak and its phase swing at the mechanical resonance"
 
-    @classmethod
-    def default_params(cls):
-        return specs("zeta", "omega0", "phi")
+    parameters = (ZETA, OMEGA0, PHI)
 
     def evaluate(self, s, v, other):
         """The motional *impedance* [Ω] (the model turns it into an admittance when modifiers act)."""
@@ -57,9 +80,7 @@ class Resistance(Term):
     description = "coil DC resistance R0"
     signature = "the real part of Z at low frequency, away from the resonance"
 
-    @classmethod
-    def default_params(cls):
-        return specs("R0")
+    parameters = (R0,)
 
     def evaluate(self, s, v, other):
         return col(v, 0) + 0 * s
@@ -80,14 +101,10 @@ class Inductance(Term):
     physics = "eddy_current"
     description = "coil self-inductance L0 s (model I)"
     signature = "|Z| rising in proportion to frequency, phase toward +90°"
-    #: the parameter, and its start when the linear coil stage gives it 0 (a multiple of the
+    #: the one parameter, and its start when the linear coil stage gives it 0 (a multiple of the
     #: plant's low-frequency inductance)
-    param: ClassVar[str] = "L0"
+    parameters = (L0,)
     fallback_factor: ClassVar[float] = 1.0
-
-    @classmethod
-    def default_params(cls):
-        return specs(cls.param)
 
     def evaluate(self, s, v, other):
         return T.inductance(s, col(v, 0))
@@ -99,8 +116,8 @@ class Inductance(Term):
         return FosterPart(G=float(v[0]))
 
     def coil_start(self):
-        k = self.fallback_factor
-        return CoilStart(linear={self.param: _s}, fallback={self.param: lambda L_lf: k * L_lf})
+        k, name = self.fallback_factor, self.parameters[0].name
+        return CoilStart(linear={name: _s}, fallback={name: lambda L_lf: k * L_lf})
 
 
 @dataclass(frozen=True)
@@ -110,7 +127,7 @@ class GapInductance(Inductance):
     id = "gap_inductance"
     description = "air-gap inductance Lg s"
     signature = "an inductive part of Z that eddy currents do not damp"
-    param = "Lg"
+    parameters = (LG,)
     fallback_factor = 1e-3
 
 
@@ -124,9 +141,7 @@ class LossyInductance(Term):
     description = "inductance with lumped eddy loss Rmu || L0 s (model II)"
     signature = _EDDY
 
-    @classmethod
-    def default_params(cls):
-        return specs("L0", "Rmu")
+    parameters = (L0, RMU)
 
     def evaluate(self, s, v, other):
         return T.lossy_inductance(s, col(v, 0), col(v, 1))
@@ -178,9 +193,7 @@ class BesselEddy(Term):
     description = "eddy currents distributed in a uniform cylindrical core (model III)"
     signature = _EDDY + "; semi-inductor above 1/alpha (|Z| ∝ sqrt(ω), 45°)"
 
-    @classmethod
-    def default_params(cls):
-        return specs("alpha", "beta")
+    parameters = (ALPHA, BETA)
 
     def evaluate(self, s, v, other):
         return T.bessel_eddy(s, col(v, 0), col(v, 1))
@@ -234,10 +247,13 @@ class RingLadder(_Rings):
     id = "ring_ladder"
     description = "non-uniform core cut into n rings, eddy current lumped per ring (eq. 41)"
 
+    parameters = (PG, P_RING, R_RING)
+
     @classmethod
     def default_params(cls, n_rings: int = 5, n_turns: float = 480.0):
         n = _check_rings(n_rings)
-        return specs("Pg", *[f"P{j}" for j in range(1, n + 1)], *[f"R{j}" for j in range(1, n + 1)])
+        return ParamSet([PG, *[indexed(P_RING, j) for j in range(1, n + 1)],
+                         *[indexed(R_RING, j) for j in range(1, n + 1)]])
 
     def evaluate(self, s, v, other):
         n = self.n_rings
@@ -274,10 +290,12 @@ class UniformRings(_Rings):
     id = "uniform_rings"
     description = "uniform core, air gap, eddy currents lumped in n equal-area rings (UL)"
 
+    parameters = (LG, ALPHA, BETA)
+
     @classmethod
     def default_params(cls, n_rings: int = 5, n_turns: float = 480.0):
         _check_rings(n_rings)
-        return specs("Lg", "alpha", "beta")
+        return ParamSet(cls.parameters)
 
     def _rings(self, v):
         return T.uniform_rings(v[:, 0], v[:, 1], v[:, 2], self.n_rings, self.n_turns)

@@ -17,10 +17,14 @@ from .model import Model
 from .registry import AUGMENTATIONS, BASE_MODELS, MODEL_NAMES, make_term, term_from_dict
 
 __all__ = ["build_model", "parse_model_spec", "model_from_dict", "eddy_escalations", "EDDY_LADDER",
-           "DEFAULT_N_TURNS", "DEFAULT_RINGS"]
+           "EDDY_PHYSICS", "EDDY_BAND", "DEFAULT_N_TURNS", "DEFAULT_RINGS"]
 
 #: the eddy-current escalation of the coil model (SPEC §7), lowest rung first
 EDDY_LADDER: tuple[str, ...] = ("I", "II", "III", "UD", "NL")
+#: the physics id of that escalation (not a term: a change of the coil model up :data:`EDDY_LADDER`)
+#: and its band class (:data:`~bayes_emt.models.term.BANDS`): the coil's
+EDDY_PHYSICS = "eddy_current"
+EDDY_BAND = "coil"
 
 DEFAULT_N_TURNS = 480.0  # the paper's coil (SPEC §2)
 DEFAULT_RINGS = 5  # the paper's NL choice (SPEC §3.3)

@@ -3,6 +3,15 @@
 A :class:`Term` is a frozen record of its parameter specs (with priors) and its configuration
 (e.g. a ring count), plus class-level behaviour:
 
+* **its parameters** (:attr:`Term.parameters`): every spec it declares, name (SPEC §6), SI unit,
+  label and proper prior, the same for a name in every term that declares it (evidences of models
+  sharing a parameter stay comparable); :func:`~bayes_emt.models.registry.param_spec` looks a name
+  up among the registered terms;
+* **for an augmentation, its band class** (:attr:`Term.band`, one of :data:`BANDS`): where its
+  signature acts relative to the mechanical resonance, which is how discrepancy discovery proposes
+  it (:mod:`bayes_emt.discovery.candidates`), beside the signature said in words
+  (:attr:`Term.signature`) and what rules a fitted value out (:meth:`Term.implausible`);
+
 * **where it enters the plant** (:attr:`Term.stage`, see below) and how it evaluates
   (:meth:`Term.evaluate`, vectorised over parameter sets);
 * **whether it is device physics** (:attr:`Term.device`): the shunt design and stability analysis
@@ -19,7 +28,9 @@ A :class:`Term` is a frozen record of its parameter specs (with priors) and its 
   parameters of model III's Bessel kernel; a model all of whose terms offer one is evaluated by
   the likelihood's fast path (:meth:`~bayes_emt.models.model.Model.jw_form`), any other by
   :meth:`Term.evaluate`;
-* **its serialised form** (:meth:`Term.to_dict`, :func:`~bayes_emt.models.registry.term_from_dict`);
+* **its serialised form** (:meth:`Term.to_dict`, :func:`~bayes_emt.models.registry.term_from_dict`),
+  once registered (:func:`~bayes_emt.models.registry.register_term`, which also makes an augmentation
+  available to model specs ``"UD+my_term"`` and to discovery);
 * for reports: a one-line physical description, its typical signature in the data, and the
   discrepancy-physics id it belongs to (``eddy_current`` for the coil terms).
 
@@ -37,17 +48,53 @@ so that ``Y = factor · (1/(1/Y_mot + Σ series) + Σ parallel)`` (eq. 47 and it
 
 from __future__ import annotations
 
+import re
+import typing
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import ClassVar, Literal
 
 import numpy as np
 
-from ..params import ParamSet, default_spec
+from ..params import ParamSet, ParamSpec
 
-__all__ = ["Term", "Stage", "CoilStart", "FosterPart", "StartContext"]
+__all__ = ["Term", "Stage", "BandClass", "BANDS", "CoilStart", "FosterPart", "StartContext", "indexed",
+           "resolve_spec"]
 
 Stage = Literal["stiffness", "motional", "motional_parallel", "series", "parallel", "measurement"]
+
+#: an augmentation's band class: where its signature acts relative to the mechanical resonance
+#: ``ω_r`` the data show. ``coil``: where the coil dominates (a band reaching above ``3 ω_r``);
+#: ``mechanical``: around and below the resonance (a band reaching below ``3 ω_r``); ``anywhere``:
+#: a mode or an instrument effect at any frequency, or a drift along the sweep order
+BandClass = Literal["coil", "mechanical", "anywhere"]
+BANDS: tuple[str, ...] = typing.get_args(BandClass)
+
+#: the index placeholder of an indexed parameter spec (``P{j}``: the permeance of core ring j)
+INDEX = "{j}"
+_POSITIVE = re.compile(r"[1-9]\d*")
+
+
+def indexed(spec: ParamSpec, j: int) -> ParamSpec:
+    """Parameter ``j`` of an indexed spec: ``{j}`` replaced by ``j`` in its name and description
+    (``P{j}`` → ``P3``, ``ring {j}`` → ``ring 3``) and by ``{j}`` in its TeX label (``$P_{3}$``)."""
+    return ParamSpec(spec.name.replace(INDEX, str(j)), spec.unit, spec.label.replace(INDEX, f"{{{j}}}"),
+                     spec.prior, spec.description.replace(INDEX, str(j)))
+
+
+def resolve_spec(specs, name: str) -> ParamSpec | None:
+    """The spec of ``name`` among ``specs``: an exact name, or an indexed spec's name with a positive
+    index (``R3`` from ``R{j}``; ``R0`` is not ring 0); ``None`` when none declares it."""
+    for spec in specs:
+        if spec.name == name:
+            return spec
+    for spec in specs:
+        if INDEX in spec.name:
+            head, tail = spec.name.split(INDEX, 1)
+            mid = name[len(head) : len(name) - len(tail)]
+            if name.startswith(head) and name.endswith(tail) and _POSITIVE.fullmatch(mid):
+                return indexed(spec, int(mid))
+    return None
 
 
 @dataclass(frozen=True)
@@ -138,11 +185,6 @@ class StartContext:
         return (self.omega >= self.band[0]) & (self.omega <= self.band[1])
 
 
-def specs(*names: str) -> ParamSet:
-    """The catalogue specs (:func:`~bayes_emt.params.default_spec`) of ``names``, in order."""
-    return ParamSet(default_spec(n) for n in names)
-
-
 def col(values: np.ndarray, i: int) -> np.ndarray:
     """Column ``i`` of a ``(P, k)`` parameter block as ``(P, 1)`` (broadcasts against ``(F,)``)."""
     return values[:, i : i + 1]
@@ -170,6 +212,11 @@ class Term:
     needs: ClassVar[tuple[str, ...]] = ()
     #: what the data can and cannot determine, said in reports (e.g. lead resistance vs R0)
     identifiability: ClassVar[str] = ""
+    #: every parameter spec the term declares, with its proper prior (module docstring); a name
+    #: holding :data:`INDEX` is indexed (one per ring)
+    parameters: ClassVar[tuple[ParamSpec, ...]] = ()
+    #: an augmentation's band class (:data:`BANDS`): where discovery looks for its signature
+    band: ClassVar[str] = ""
 
     # ---- construction and serialisation ---------------------------------------------------------
     @classmethod
@@ -178,8 +225,24 @@ class Term:
         return cls(cls.default_params(**config), **config)
 
     @classmethod
-    def default_params(cls, **config) -> ParamSet:  # pragma: no cover - every subclass defines it
-        raise NotImplementedError
+    def default_params(cls, **config) -> ParamSet:
+        """The parameters with their declared priors (:attr:`parameters`, in order); a term with
+        indexed parameters or configuration-dependent ones overrides this."""
+        return ParamSet(cls.parameters)
+
+    @classmethod
+    def spec(cls, name: str) -> ParamSpec:
+        """The declared spec of parameter ``name`` (an indexed one resolved, ``P3`` from ``P{j}``)."""
+        found = resolve_spec(cls.parameters, name)
+        if found is None:
+            raise KeyError(f"term {cls.id!r} declares no parameter {name!r}; it has "
+                           f"{[p.name for p in cls.parameters]}")
+        return found
+
+    @classmethod
+    def specs(cls, *names: str) -> ParamSet:
+        """The declared specs of ``names``, in order (:meth:`spec`)."""
+        return ParamSet(cls.spec(n) for n in names)
 
     def config(self) -> dict:
         """The configuration fields (everything but ``params``), JSON-serialisable."""
@@ -197,8 +260,10 @@ class Term:
         return self.params.names
 
     def describe(self) -> dict:
-        """Catalogue entry for reports: id, stage, physics, description, signature, parameters."""
-        return {"id": self.id, "stage": self.stage, "physics": self.physics, "description": self.description,
+        """Catalogue entry for reports: id, stage, band class, physics, description, signature,
+        parameters."""
+        return {"id": self.id, "stage": self.stage, "band": self.band, "physics": self.physics,
+                "description": self.description,
                 "signature": self.signature, "device": self.device, "identifiability": self.identifiability,
                 "parameters": [{"name": p.name, "unit": p.unit, "description": p.description,
                                 "prior": p.prior.to_dict()} for p in self.params]}

@@ -1,12 +1,13 @@
-"""Parameter specifications: proper priors, specs and the default catalogue (SPEC §6 names, SI units).
+"""Parameter specifications: proper priors, specs, transforms and the noise parameters (SI units).
 
 One description every stage reuses: least-squares bounds, log-prior with its log-Jacobian, the
-unit-cube transform for nested sampling, prior draws, labels and JSON.
+unit-cube transform for nested sampling, prior draws, labels and JSON. The physics parameters'
+specs are declared by the terms of :mod:`bayes_emt.models` (:func:`bayes_emt.models.param_spec`).
 """
 
-from .defaults import NOISE_PARAMS, NU_SPEC, default_spec, noise_param_set
+from .defaults import NOISE_PARAMS, NU_SPEC, noise_param_set
 from .priors import LogNormal, LogUniform, Normal, Prior, Uniform, prior_from_dict
-from .spec import ParamSet, ParamSpec
+from .spec import CLIP_MARGIN, ParamSet, ParamSpec, clip_inside
 
 __all__ = ["LogUniform", "Uniform", "Normal", "LogNormal", "Prior", "prior_from_dict", "ParamSpec",
-           "ParamSet", "default_spec", "NOISE_PARAMS", "NU_SPEC", "noise_param_set"]
+           "ParamSet", "clip_inside", "CLIP_MARGIN", "NOISE_PARAMS", "NU_SPEC", "noise_param_set"]

@@ -1,0 +1,50 @@
+"""Semi-inductance (SPEC §7; Leach 1999): the loudspeaker world's lossy coil inductance ``K s^n``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...params import LogUniform, ParamSpec, Uniform
+from ..term import Term, col
+from ._starts import top
+
+__all__ = ["SemiInductance"]
+
+
+@dataclass(frozen=True)
+class SemiInductance(Term):
+    """``Z ← Z + K s^n`` (Leach 1999): the loudspeaker world's lossy inductance."""
+
+    id = "semi_inductance"
+    augmentation = True
+    band = "coil"
+    coil = True
+    physics = "semi_inductance"
+    description = "lossy coil inductance K s^n (Leach 1999), 0 < n < 1"
+    signature = "|Z| rising as omega^n with a phase near n·90° at high frequency"
+    parameters = (
+        ParamSpec("K_semi", "ohm s^n", r"$K$", LogUniform(1e-10, 1e4), "semi-inductance scale (Leach 1999)"),
+        ParamSpec("n_semi", "1", r"$n$", Uniform(0.0, 1.0),
+                  "semi-inductance exponent (0: resistor, 1: inductor)"),
+    )
+
+    def evaluate(self, s, v, other):
+        return col(v, 0) * np.exp(col(v, 1) * np.log(s))
+
+    def start(self, ctx):
+        sK, sn = self.params["K_semi"], self.params["n_semi"]
+        band_top = top(ctx, 0.3)
+        dz = (ctx.Z - ctx.Z_base)[band_top]
+        w = ctx.omega[band_top]
+        out = []
+        ph = np.angle(dz)
+        good = (ph > 0) & (ph < np.pi / 2)
+        if np.count_nonzero(good) >= 3:
+            n = float(np.clip(np.median(ph[good]) / (np.pi / 2), 0.05, 0.95))
+            out.append((n, float(np.median(np.abs(dz[good]) / w[good] ** n))))
+        zref = float(np.median(np.abs(ctx.Z[band_top])))
+        for n in (0.3, 0.5, 0.7):
+            out.append((n, 0.1 * zref / float(np.median(w)) ** n))
+        return [{"K_semi": sK.clip_inside(K), "n_semi": sn.clip_inside(n)} for n, K in out]
