@@ -75,9 +75,9 @@ def test_the_dispatch_check_finds_what_it_looks_for(tmp_path):
 
 
 # ---- a physics term is one file (issue 21): params/ and discovery/ name no term ----------------
-#: term names a file may still hold until the lead's rewrite of it lands (issue 21): the test fails
-#: when an entry is no longer needed, so that it is removed with the last use
-_PENDING = {("discovery/diagnose.py", "eddy_current")}
+#: term names a file may still hold (none): the test fails when an entry is no longer needed, so
+#: that it is removed with the last use
+_PENDING: set[tuple[str, str]] = set()
 
 
 def _indexed_names(name: str) -> set[str]:

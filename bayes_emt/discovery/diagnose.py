@@ -26,7 +26,7 @@ from ..estimation.results import FitResult
 from ..evidence.fit_evidence import fit_log_evidence
 from ..evidence.scale import verbal
 from ..measurement import Measurement
-from ..models import Model, parse_model_spec
+from ..models import EDDY_PHYSICS, Model, parse_model_spec
 from ..models.derived import derived_values
 from .candidates import candidate_physics
 from .locate import ALPHA, Band, Location, locate_mismatch
@@ -359,7 +359,7 @@ def _explain(c: Candidate, band: Band, model: Model, moved: dict) -> str:
         else f"{n} = {_fmt(v, units[n])}"
         for n, (v, s) in c.added.items()
     )
-    what = c.fit.model.label if c.physics == "eddy_current" else c.physics
+    what = c.fit.model.label if c.physics == EDDY_PHYSICS else c.physics
     lo, hi = band.lo / (2 * math.pi), band.hi / (2 * math.pi)
     head = f"{what} ({pars})" if pars else what
     shifts = ", ".join(

@@ -209,8 +209,9 @@ class Posterior(Record):
         rows = tuple((r["name"], r["median"], r["q05"], r["q95"], r["unit"], r["ess"], r["tau"])
                      for r in self.summary_rows())
         units = self.derived_units()
-        drows = tuple((f"{k} (derived)", float(np.median(v)), float(np.quantile(v, 0.05)), float(np.quantile(v, 0.95)),
-                       units[k], "", "") for k, v in self.derived().items() if np.all(np.isfinite(v)))
+        drows = tuple((f"{k} (derived)", float(np.median(v)), float(np.quantile(v, 0.05)),
+                       float(np.quantile(v, 0.95)), units[k], "", "")
+                      for k, v in self.derived().items() if np.all(np.isfinite(v)))
         note = (f"{'converged' if self.converged else 'NOT CONVERGED'}: {self.message}; burn {self.burn}, "
                 f"thin {self.thin}, acceptance {self.acceptance:.2f}, {self.wall_time:.1f} s")
         return [Table(f"{self.model.label}: posterior median and central 90 % interval "
