@@ -91,3 +91,15 @@ def test_novak_recording_truth_matches_its_author():
     assert 4.92 * 0.99 < tr.R0 < 4.95 * 1.01
     assert tr.Bl_spread[1] - tr.Bl_spread[0] < 0.01 * tr.Bl  # degree of the polynomial irrelevant
     assert 150.0 < tr.fs < 175.0  # |V/I| peaks at 160 Hz in the file
+
+
+def test_instrument_factor_is_the_artifact_step_and_one_without_it():
+    omega = np.geomspace(60.0, 1.2e5, 40)
+    ud = parse_model_spec("UD")
+    p = {"zeta": 0.1, "omega0": 1000.0, "phi": 100.0, "R0": 5.0, "Lg": 1e-4, "alpha": 5e-4, "beta": 0.04}
+    np.testing.assert_allclose(ts.instrument_factor(ud, ud.vector(p), omega), 1.0, rtol=1e-12)
+    art = parse_model_spec("UD+measurement_artifact")
+    g = ts.instrument_factor(art, art.vector({**p, "omegas": 1156.0, "delta_s": 0.1, "psi_s": 0.05}), omega)
+    step = omega > 1156.0
+    np.testing.assert_allclose(g[~step], 1.0, rtol=1e-12)
+    np.testing.assert_allclose(g[step], 1.1 * np.exp(0.05j), rtol=1e-12)

@@ -203,6 +203,15 @@ def blocked_impedance(model: Model, theta, omega) -> np.ndarray:
     return 1.0 / (1.0 / zs + loop.y_parallel)
 
 
+def instrument_factor(model: Model, theta, omega) -> np.ndarray:
+    """What the instrument terms (``device = False``: a measurement artifact's gain step) multiply
+    the device's admittance by at ``omega`` [rad/s]; 1 for a model without them. The blocked
+    impedance *as that instrument would measure it* is ``blocked_impedance / factor``: the fair
+    comparison if the artifact were real, since ``Ze = U/I − Bl V/I`` then carries it in ``U/I``."""
+    theta = np.asarray(theta, float)
+    return model.admittance(omega, theta) * model.impedance_s(1j * np.asarray(omega, float), theta)
+
+
 def rms_rel(a, b) -> float:
     return float(np.sqrt(np.mean(np.abs(a - b) ** 2 / np.abs(b) ** 2)))
 
@@ -254,7 +263,14 @@ def study(rec: Recording, path: Path, *, start: str, n_points: int, seed: int, t
             fits[spec] = fit_model(meas, spec)
         say(f"  fixed model {fits[spec].model.label}: rms rel residual "
             f"{100 * fits[spec].rms_rel_residual:.2f} %")
-    zb = {k: blocked_impedance(v.model, v.theta, omega) for k, v in fits.items()}
+    zb, columns = {}, []
+    for k, v in fits.items():
+        zb[k] = blocked_impedance(v.model, v.theta, omega)
+        columns.append([k, v.model.label if k in ("baseline", "diagnosed") else k])
+        gain = instrument_factor(v.model, v.theta, omega)
+        if np.max(np.abs(gain - 1.0)) > 1e-9:
+            zb[k + "+instrument"] = zb[k] / gain
+            columns.append([k + "+instrument", columns[-1][1] + ", instrument terms applied"])
     params = {}
     for k, v in fits.items():
         p = v.parameters
@@ -270,6 +286,7 @@ def study(rec: Recording, path: Path, *, start: str, n_points: int, seed: int, t
         "models": params,
         "findings": [x.physics for x in d.findings],
         "extra_models": list(extra),
+        "columns": columns,
         "diagnosis_warnings": list(d.warnings),
         "seconds": {"baseline_fit": t_fit, "diagnose": t_diag},
         "bands": band_errors(fsel, tr.Ze[idx], zb, tr.z_extrapolated[idx], tr.v_max_hz),
@@ -285,7 +302,7 @@ def markdown(results: list[dict]) -> str:
     lines = []
     for r in results:
         t, models = r["truth"], r["models"]
-        keys = list(models)
+        keys = [c[0] for c in r["columns"]]
         b, dg = models["baseline"], models["diagnosed"]
         lines += [
             f"### {r['recording']}: {r['device']}",
@@ -299,8 +316,7 @@ def markdown(results: list[dict]) -> str:
             "rms relative error of each model's blocked impedance against the measured Ze [%] "
             "(verdict against the baseline, ±1 % of its error = same):",
             "",
-            "| band [Hz] | points | " + " | ".join(models[k]["model"] if k in ("baseline", "diagnosed")
-                                                   else k for k in keys) + " | truth |",
+            "| band [Hz] | points | " + " | ".join(c[1] for c in r["columns"]) + " | truth |",
             "|---|---|" + "---|" * len(keys) + "---|",
         ]
         for x in r["bands"]:
@@ -316,7 +332,7 @@ def markdown(results: list[dict]) -> str:
             lines.append(f"| {lo:g}-{hi:g} | {x['n']} | " + " | ".join(cells) + f" | {truth} |")
         lines += ["", "| model | terminal rms [%] | R0 [ohm] | fs [Hz] |", "|---|---|---|---|",
                   f"| truth | - | {t['R0_ohm']:.4g} | {t['fs_hz']:.4g} |"]
-        for k in keys:
+        for k in models:
             m = models[k]
             lines.append(f"| {k}: {m['model']} | {100 * m['rms_rel_residual_terminal']:.2f} | "
                          f"{m['R0']:.4g} ({100 * m['R0_rel_err']:+.1f} %) | "
