@@ -337,6 +337,8 @@ def markdown(results: list[dict]) -> str:
             lines.append(f"| {k}: {m['model']} | {100 * m['rms_rel_residual_terminal']:.2f} | "
                          f"{m['R0']:.4g} ({100 * m['R0_rel_err']:+.1f} %) | "
                          f"{m['fs_hz']:.4g} ({100 * m['fs_rel_err']:+.1f} %) |")
+        for w in r["diagnosis_warnings"]:
+            lines.append(f"- diagnosis warning: {w}")
         lines.append("")
     return "\n".join(lines)
 
