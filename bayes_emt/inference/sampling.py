@@ -65,12 +65,26 @@ stores no step removes the checkpoint it created, and a checkpoint holding no st
 the next run (:mod:`bayes_emt.inference.checkpoint`). A parameter whose walkers never moved has no
 autocorrelation time (emcee's estimate is 0/0): it counts as correlated over the whole chain and
 the run as not converged, with a message saying so.
+
+Interrupts and concurrent runs
+------------------------------
+A run holds the checkpoint's lock (:class:`~bayes_emt.inference.checkpoint.CheckpointLock`) from
+before it reads or creates the file to after its last write: a second run on the same file is
+refused in one line. SIGINT (and SIGTERM, when the program has turned it into an exception, as the
+command line does) are held while the sampler steps and acted on between two steps
+(:class:`_HeldSignals`): emcee's log-probability wrapper catches *every* exception, KeyboardInterrupt
+included, and prints its traceback and arguments before re-raising, which is what a Ctrl-C showed
+whenever it arrived inside a model evaluation. The run then raises
+:class:`~bayes_emt.errors.Interrupted` saying how many steps the checkpoint holds; ``resume``
+continues from there to the same chain.
 """
 
 from __future__ import annotations
 
 import math
+import signal
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -80,12 +94,12 @@ from pathlib import Path
 import emcee
 import numpy as np
 
-from ..errors import ConvergenceWarning
+from ..errors import ConvergenceWarning, Interrupted
 from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import Model
 from ..params import ParamSet
-from .checkpoint import ChainStore, check_checkpoint, checkpoint_steps, read_identity
+from .checkpoint import ChainStore, CheckpointLock, check_checkpoint, checkpoint_steps, read_identity
 from .likelihood import Likelihood, LikelihoodKind
 from .moves import MOVES_DESCRIPTION, SnookerMove, production_moves, proposal_mismatch, warmup_moves
 from .posterior import Posterior
@@ -269,6 +283,55 @@ def _open_store(checkpoint, resume, overwrite, ident, nwalkers, ndim, reseed_eve
     return store
 
 
+class _HeldSignals:
+    """Hold SIGINT/SIGTERM while emcee steps (module docstring): the handler only records the
+    signal; :meth:`check`, called between steps, raises :class:`~bayes_emt.errors.Interrupted`.
+    SIGINT is held whenever its handler raises (Python's default); SIGTERM only when the program
+    installed a handler of its own (the default, ending the process, is left alone). Only in the
+    main thread (elsewhere signals are not delivered to Python code)."""
+
+    def __init__(self):
+        self.signum: int | None = None
+        self._old: dict = {}
+
+    def __enter__(self):
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            old = signal.getsignal(sig)
+            if callable(old) and (sig == signal.SIGINT or old is not signal.default_int_handler):
+                self._old[sig] = old
+                signal.signal(sig, self._record)
+        return self
+
+    def _record(self, signum, frame):
+        if self.signum is None:
+            self.signum = signum
+
+    def check(self) -> None:
+        if self.signum is not None:
+            raise Interrupted(self.signum)
+
+    def __exit__(self, *exc):
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old = {}
+        return False
+
+
+def _interrupted(exc: KeyboardInterrupt, checkpoint) -> Interrupted:
+    """The exception a stopped run raises: what the checkpoint holds, and how to continue."""
+    signum = getattr(exc, "signum", signal.SIGINT)
+    if checkpoint is None:
+        return Interrupted(signum, "interrupted; no checkpoint was kept (the chain is lost)")
+    steps = checkpoint_steps(checkpoint)
+    if not steps:
+        return Interrupted(signum, f"interrupted before the first block of steps was stored; nothing kept "
+                                   f"(no checkpoint {checkpoint})")
+    return Interrupted(signum, f"interrupted; checkpoint {checkpoint} is intact ({steps} steps stored), "
+                               "continue with --resume")
+
+
 def _acceptance(chain: np.ndarray, burn: int) -> float:
     """Fraction of accepted proposals after burn-in, from the chain itself (a continuous proposal
     never lands on its start), immune to the backend's counters."""
@@ -335,6 +398,57 @@ class _Phases:
         return starts[-1] if starts else 0
 
 
+def _run_locked(target, start, seed, max_steps, checkpoint, resume, overwrite, progress, settings, ident,
+                nwalkers, ndim):
+    """The body of :func:`run_ensemble`, run while holding the checkpoint's lock."""
+    store = _open_store(checkpoint, resume, overwrite, ident, nwalkers, ndim, settings.reseed_every)
+    progress = sys.stderr.isatty() if progress is None else bool(progress)
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=max_steps, initial=min(store.iteration, max_steps), disable=not progress,
+               file=sys.stderr, desc=f"emcee {target.label}", unit="step", leave=False)
+    history: list[dict] = []
+    verdict = None
+    tau_cache: dict = {}
+    try:
+        z0 = start(nwalkers) if store.iteration == 0 else None
+        phases = _Phases(target, nwalkers, store, settings.warmup)
+        with _HeldSignals() as held:
+            while True:
+                n = store.iteration
+                sampler = phases.at(n)
+                if n > 0 and (n % settings.check_every == 0 or n >= max_steps):
+                    verdict = stopping_rule(store.get_chain(), n, settings, phases.start(n), tau_cache)
+                    history.append(verdict)
+                    bar.set_postfix(tau_max=f"{verdict['tau_max']:.0f}", n_tau=f"{verdict['n_over_tau']:.0f}",
+                                    ess=f"{verdict['ess_min']:.0f}")
+                    if verdict["converged"] or n >= max_steps:
+                        break
+                held.check()
+                block = n // settings.reseed_every
+                seg = min((block + 1) * settings.reseed_every - n, max_steps - n)
+                if n == 0:
+                    state = emcee.State(z0, random_state=_block_state(seed, 0))
+                else:
+                    state = store.get_last_sample()
+                    state.random_state = _block_state(seed, block)
+                # emcee's run_mcmc, a step at a time, acting on a held signal between steps
+                for _ in sampler.sample(state, iterations=seg, skip_initial_state_check=n > 0):
+                    held.check()
+                store.flush()
+                bar.update(seg)
+    except BaseException as exc:
+        # a run that stored no step leaves no checkpoint of its own making behind
+        if checkpoint is not None and not resume and checkpoint_steps(checkpoint) in (0, None):
+            Path(checkpoint).unlink(missing_ok=True)
+        if isinstance(exc, KeyboardInterrupt):
+            raise _interrupted(exc, checkpoint) from None
+        raise
+    finally:
+        bar.close()
+    return store, verdict, history, phases, tau_cache
+
+
 def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, max_steps: int | None = None,
                  checkpoint: str | Path | None = None, resume: bool = False, overwrite: bool = False,
                  progress: bool | None = None, settings: SamplerSettings = SamplerSettings()) -> dict:
@@ -358,45 +472,14 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
     nwalkers = max(settings.walkers_per_dim * ndim, 2 * ndim + 2)
     nwalkers += nwalkers % 2
     ident = _run_identity(target, seed, nwalkers, settings)
-    store = _open_store(checkpoint, resume, overwrite, ident, nwalkers, ndim, settings.reseed_every)
-    progress = sys.stderr.isatty() if progress is None else bool(progress)
-    from tqdm.auto import tqdm
-
-    bar = tqdm(total=max_steps, initial=min(store.iteration, max_steps), disable=not progress,
-               file=sys.stderr, desc=f"emcee {target.label}", unit="step", leave=False)
-    history: list[dict] = []
-    verdict = None
-    tau_cache: dict = {}
+    lock = None if checkpoint is None else CheckpointLock(checkpoint).acquire()
     try:
-        z0 = start(nwalkers) if store.iteration == 0 else None
-        phases = _Phases(target, nwalkers, store, settings.warmup)
-        while True:
-            n = store.iteration
-            sampler = phases.at(n)
-            if n > 0 and (n % settings.check_every == 0 or n >= max_steps):
-                verdict = stopping_rule(store.get_chain(), n, settings, phases.start(n), tau_cache)
-                history.append(verdict)
-                bar.set_postfix(tau_max=f"{verdict['tau_max']:.0f}", n_tau=f"{verdict['n_over_tau']:.0f}",
-                                ess=f"{verdict['ess_min']:.0f}")
-                if verdict["converged"] or n >= max_steps:
-                    break
-            block = n // settings.reseed_every
-            seg = min((block + 1) * settings.reseed_every - n, max_steps - n)
-            if n == 0:
-                state = emcee.State(z0, random_state=_block_state(seed, 0))
-            else:
-                state = store.get_last_sample()
-                state.random_state = _block_state(seed, block)
-            sampler.run_mcmc(state, seg, skip_initial_state_check=n > 0)
-            store.flush()
-            bar.update(seg)
-    except BaseException:
-        # a run that stored no step leaves no checkpoint of its own making behind
-        if checkpoint is not None and not resume and checkpoint_steps(checkpoint) in (0, None):
-            Path(checkpoint).unlink(missing_ok=True)
-        raise
+        store, verdict, history, phases, tau_cache = _run_locked(
+            target, start, seed, max_steps, checkpoint, resume, overwrite, progress, settings, ident,
+            nwalkers, ndim)
     finally:
-        bar.close()
+        if lock is not None:
+            lock.release()
     message = _verdict_message(verdict, max_steps, settings)
     if not verdict["converged"]:
         warnings.warn(f"{target.label}: {message}", ConvergenceWarning, stacklevel=3)
