@@ -272,18 +272,36 @@ class ChainStore(emcee.backends.Backend):
         self._flushed = n
 
     def _check_space(self, steps: int) -> None:
-        """Refuse a flush the disk cannot hold (uncompressed size of the new steps, plus 1 MiB)."""
+        """Refuse a flush the disk cannot hold, before HDF5 starts it: twice the new steps'
+        uncompressed size plus 1 MiB must be free, and that much is reserved for the file with
+        ``posix_fallocate`` (HDF5 then writes into blocks it owns; it truncates the file back to
+        what it uses when it closes). h5py crashed (SIGSEGV) closing a file whose write had failed
+        for want of space, so the write must not start at all."""
         width = self.nwalkers * (self.ndim + 1 + (1 if self.blobs is not None else 0))
-        need = 8 * steps * width + (1 << 20)
+        need = 2 * 8 * steps * width + (1 << 20)
         try:
             free = shutil.disk_usage(self.path.parent if str(self.path.parent) else ".").free
         except OSError:
-            return
-        if free < need:
+            free = None
+        stored = f"the {self._flushed} steps stored before are intact"
+        if free is not None and free < need:
             self._broken = True
-            raise CheckpointError(f"{self.path}: no space left on the device for the next "
-                                  f"{steps} steps ({need / 1e6:.1f} MB needed, {free / 1e6:.1f} MB free); "
-                                  f"the {self._flushed} steps stored are intact", errno.ENOSPC)
+            raise CheckpointError(f"{self.path}: no space left on the device for the next {steps} steps "
+                                  f"({need / 1e6:.1f} MB needed, {free / 1e6:.1f} MB free); {stored}",
+                                  errno.ENOSPC)
+        try:
+            fd = os.open(self.path, os.O_RDWR)
+        except OSError:
+            return  # h5py's open will say what is wrong
+        try:
+            os.posix_fallocate(fd, 0, os.fstat(fd).st_size + need)
+        except OSError as exc:
+            if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+                self._broken = True
+                raise CheckpointError(f"{self.path}: no space left on the device for the next {steps} steps "
+                                      f"({need / 1e6:.1f} MB to reserve); {stored}", errno.ENOSPC) from None
+        finally:
+            os.close(fd)
 
     def _append(self, a: int, n: int) -> None:
         with h5_open(self.path, "a") as f:
