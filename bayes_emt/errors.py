@@ -3,7 +3,7 @@
 import signal as _signal
 
 __all__ = ["BayesEMTError", "DataFormatError", "IdentifiabilityWarning", "ConvergenceWarning",
-           "FitError", "CheckpointError", "Interrupted"]
+           "FitError", "CheckpointError", "Interrupted", "PriorConflictWarning"]
 
 
 class BayesEMTError(Exception):
@@ -52,3 +52,8 @@ class IdentifiabilityWarning(UserWarning):
 
 class ConvergenceWarning(UserWarning):
     """An iterative method stopped before meeting its convergence criterion."""
+
+
+class PriorConflictWarning(UserWarning):
+    """The posterior of some parameter lies in the far tail of its prior (the prior contradicts the
+    data); the message names the parameters."""

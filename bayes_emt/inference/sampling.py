@@ -94,11 +94,12 @@ from pathlib import Path
 import emcee
 import numpy as np
 
-from ..errors import ConvergenceWarning, Interrupted
+from ..errors import ConvergenceWarning, Interrupted, PriorConflictWarning
 from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import Model
 from ..params import ParamSet
+from ..params.priors import LogNormal, LogUniform, Normal, Uniform
 from .checkpoint import ChainStore, CheckpointLock, check_checkpoint, checkpoint_steps, read_identity
 from .likelihood import Likelihood, LikelihoodKind
 from .moves import MOVES_DESCRIPTION, SnookerMove, production_moves, proposal_mismatch, warmup_moves
@@ -238,6 +239,63 @@ def _verdict_message(v: dict, max_steps: int, settings: SamplerSettings) -> str:
     if not v["ess_reached"]:
         why.append(f"min ESS {v['ess_min']:.0f} (need {settings.ess_target:g})")
     return f"not converged within {max_steps} steps: " + ", ".join(why)
+
+
+PRIOR_TAIL_Z = 4.0  # a posterior median this many prior standard deviations out: the prior's far tail
+_BOUND_FRACTION = 1e-3  # of the prior's (log-)range: draws this close to a bound are piled against it
+
+
+def prior_conflicts(params, draws: np.ndarray) -> list[dict]:
+    """Parameters whose posterior sits in the far tail of their prior: the data and the prior
+    disagree (a ``--priors`` file that excludes what the data say).
+
+    ``draws`` are physical values ``(n, k)``. A normal or log-normal prior is in conflict when the
+    draws' median lies more than :data:`PRIOR_TAIL_Z` prior standard deviations (of x, or of log x)
+    from the prior's centre; a uniform or log-uniform prior when more than half the draws lie within
+    :data:`_BOUND_FRACTION` of its range from one bound (the posterior piled against it). Returns
+    ``{"name", "median", "unit", "prior", "how"}`` per parameter in conflict."""
+    out = []
+    draws = np.asarray(draws, float)
+    if draws.ndim != 2 or draws.shape[0] == 0:
+        return out
+    for i, spec in enumerate(params):
+        x = draws[:, i]
+        x = x[np.isfinite(x)]
+        if x.size == 0:
+            continue
+        med = float(np.median(x))
+        pr = spec.prior
+        how = None
+        if isinstance(pr, Normal | LogNormal):
+            if isinstance(pr, Normal):
+                z = (med - pr.mu) / pr.sigma
+                centre = f"{pr.mu:.4g}"
+            else:
+                z = (math.log(med) - math.log(pr.median)) / pr.sigma_log if med > 0 else -math.inf
+                centre = f"{pr.median:.4g}"
+            if abs(z) > PRIOR_TAIL_Z:
+                how = (f"{abs(z):.3g} prior standard deviations {'above' if z > 0 else 'below'} the prior's "
+                       f"centre {centre} {spec.unit}")
+        elif isinstance(pr, Uniform | LogUniform):
+            if isinstance(pr, LogUniform):
+                u = (np.log(x) - math.log(pr.lower)) / math.log(pr.upper / pr.lower)
+            else:
+                u = (x - pr.lower) / (pr.upper - pr.lower)
+            for side, near, bound in (("lower", u < _BOUND_FRACTION, pr.lower),
+                                      ("upper", u > 1 - _BOUND_FRACTION, pr.upper)):
+                if np.mean(near) > 0.5:
+                    how = (f"{100 * np.mean(near):.0f} % of the draws against the prior's {side} bound "
+                           f"{bound:.4g} {spec.unit}")
+        if how is not None:
+            out.append({"name": spec.name, "median": med, "unit": spec.unit, "prior": pr.to_dict(),
+                        "how": how})
+    return out
+
+
+def _conflict_message(conflicts: list[dict]) -> str:
+    parts = [f"{c['name']} (posterior median {c['median']:.4g} {c['unit']}, {c['how']})" for c in conflicts]
+    return ("the posterior lies in the far tail of the prior of " + "; ".join(parts)
+            + ": the prior contradicts the data there; widen or recentre it (--priors), or check the data")
 
 
 def _run_identity(target, seed: int, nwalkers: int, settings: SamplerSettings) -> dict:
@@ -481,13 +539,20 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
         if lock is not None:
             lock.release()
     message = _verdict_message(verdict, max_steps, settings)
-    if not verdict["converged"]:
-        warnings.warn(f"{target.label}: {message}", ConvergenceWarning, stacklevel=3)
     chain = store.get_chain()
     s0 = phases.start(chain.shape[0])
     cached = tau_cache.get((s0, chain.shape[0] - s0))
     tau = integrated_time(chain[s0:]) if cached is None else cached[0]
     burn = min(s0 + int(math.ceil(2 * np.max(tau))), chain.shape[0] - 1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        conflicts = prior_conflicts(target.params, target.params.from_z(chain[burn:].reshape(-1, ndim)))
+    if conflicts:
+        # the specific cause first: a chain stuck in the prior's far tail also fails to converge
+        conflict = _conflict_message(conflicts)
+        message = (f"{conflict} ({message})" if not verdict["converged"] else f"{message}; but {conflict}")
+        warnings.warn(f"{target.label}: {conflict}", PriorConflictWarning, stacklevel=3)
+    if not verdict["converged"]:
+        warnings.warn(f"{target.label}: {message}", ConvergenceWarning, stacklevel=3)
     return {"chain": chain, "log_prob": store.get_log_prob(), "blobs": store.get_blobs(), "tau": tau,
             "burn": burn, "max_draws": settings.max_draws,
             "converged": verdict["converged"], "seed": seed, "message": message, "history": history,
