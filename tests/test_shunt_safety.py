@@ -25,9 +25,9 @@ from bayes_emt.io import read_measurement
 from bayes_emt.io.datasets import load_paper_bench
 from bayes_emt.reference import PAPER_TABLES
 from bayes_emt.shunt import design_rc_shunt
+from bayes_emt.shunt.design import read_shunt_design
 from bayes_emt.shunt.draws import DrawGroup
 from bayes_emt.shunt.from_posterior import read_robust_shunt, robust_shunt
-from bayes_emt.shunt.records import read_shunt_design
 from bayes_emt.shunt.robust import design_robust_shunt
 from bayes_emt.shunt.safety import MARGIN_CODE, Z90, check_margin, r0_uncertainty
 
@@ -70,11 +70,15 @@ def test_r0_uncertainty_sources():
 
 # ---- acceptance: the bundled NL(5) design does not warn, the woofer's does ---------------------------
 @pytest.fixture(scope="module")
-def nl5():
-    fit = fit_admittance(load_paper_bench(), build_model("NL", rings=5))
-    R0 = fit.theta[fit.model.params.index("R0")]
-    unc = r0_uncertainty(R0=R0, stderr=fit.stderr["R0"])
-    return design_rc_shunt(fit.model, fit.theta, r0_uncertainty=unc)
+def nl5_fit():
+    return fit_admittance(load_paper_bench(), build_model("NL", rings=5))
+
+
+@pytest.fixture(scope="module")
+def nl5(nl5_fit):
+    R0 = nl5_fit.theta[nl5_fit.model.params.index("R0")]
+    unc = r0_uncertainty(R0=R0, stderr=nl5_fit.stderr["R0"])
+    return design_rc_shunt(nl5_fit.model, nl5_fit.theta, r0_uncertainty=unc)
 
 
 def test_bundled_nl5_design_has_margin_above_its_uncertainty(nl5):
@@ -118,10 +122,9 @@ def test_design_record_summary_repr_json_roundtrip(nl5, tmp_path):
     assert back.Rs == nl5.Rs and back.stability_margin_ohm == nl5.stability_margin_ohm
 
 
-def test_cli_shunt_params_reports_margin_and_uncertainty(tmp_path, capsys):
+def test_cli_shunt_params_reports_margin_and_uncertainty(nl5_fit, tmp_path, capsys):
     fit_json, out = tmp_path / "nl.json", tmp_path / "shunt.json"
-    assert main(["fit", str(load_paper_bench().meta["source"]), "--model", "NL", "--rings", "5", "--quiet",
-                 "--json", str(fit_json)]) in (0, 1)
+    fit_json.write_text(json.dumps(nl5_fit.to_json_dict()))  # the fit --json record
     assert main(["shunt", "--params", str(fit_json), "--ohmmeter-tolerance", "0.2", "--json", str(out)]) == 0
     cap = capsys.readouterr()
     assert "stability margin 0.17" in cap.out and "ohmmeter_tolerance 0.2" in cap.out

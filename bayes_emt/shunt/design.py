@@ -22,21 +22,25 @@ Nelder–Mead on the refined peak. (3) The result is evaluated on the exact mode
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
 
 import numpy as np
 from scipy import optimize
 
 from .._json import strict_json
+from ..errors import DataFormatError
 from ..models import Model
 from .receptance import Plant, rc_impedance
+from .records import design_summary, html_table
 from .safety import check_margin
 from .stability import StabilityReport, assess_stability, instability_threshold, threshold_grid
 
 __all__ = ["ShuntDesign", "ShuntEvaluation", "ShuntWarning", "closed_form_rc", "design_rc_shunt",
-           "evaluate_rc_shunt"]
+           "evaluate_rc_shunt", "read_shunt_design", "design_from_json_dict"]
 
 
 class ShuntWarning(UserWarning):
@@ -126,19 +130,13 @@ class ShuntDesign(ShuntEvaluation):
 
     def summary(self) -> str:
         """A plain-text table with units, then the warnings and notes."""
-        from .records import design_summary
-
         return design_summary(self)
 
     def _repr_html_(self) -> str:
-        from .records import html_table
-
         return html_table(self.summary())
 
     def to_json(self) -> str:
         """Strict JSON (no NaN) of :meth:`to_json_dict`."""
-        import json
-
         return json.dumps(self.to_json_dict(), indent=2, allow_nan=False)
 
     def save(self, path) -> None:
@@ -386,3 +384,39 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
                        peaks=tuple((p.omega, p.value) for p in final), optimum=optimum, info=info,
                        r0_uncertainty_ohm=safety.r0_uncertainty_ohm, r0_uncertainty=safety.r0_uncertainty,
                        warnings=safety.warnings, notes=safety.notes)
+
+
+def design_from_json_dict(rec: dict, *, where: str = "shunt design"):
+    """A :class:`~bayes_emt.shunt.design.ShuntDesign` from its :meth:`to_json_dict` (nulls, the JSON
+    form of non-finite numbers, read back as NaN, or +inf for an unstable design's attenuation)."""
+    if not isinstance(rec, dict):
+        raise DataFormatError(f"{where}: expected a JSON object")
+    names = [f.name for f in fields(ShuntDesign)]
+    missing = [n for n in names[:14] if n not in rec]
+    if missing:
+        raise DataFormatError(f"{where}: not a shunt design (missing {', '.join(missing)})")
+    kw = {}
+    for n in names:
+        if n not in rec:
+            continue
+        v = rec[n]
+        if v is None and n not in ("max_pole_real", "min_damping_ratio", "r0_uncertainty_ohm"):
+            v = math.inf if n == "attenuation_db" and not rec.get("stable", True) else math.nan
+        if n == "peaks":
+            v = tuple(tuple(p) for p in v)
+        elif n in ("warnings", "notes"):
+            v = tuple(dict(w) if isinstance(w, dict) else w for w in v)
+        kw[n] = v
+    return ShuntDesign(**kw)
+
+
+def read_shunt_design(path: str | Path):
+    """Read a design written by :meth:`ShuntDesign.save` (or ``shunt --json``)."""
+    p = Path(path)
+    try:
+        rec = json.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise DataFormatError(f"{path}: no such file") from None
+    except (OSError, ValueError) as exc:
+        raise DataFormatError(f"{path}: not a JSON shunt design ({exc})") from None
+    return design_from_json_dict(rec, where=str(path))

@@ -218,7 +218,7 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
     risk, alpha, epsilon, confidence : as :func:`~bayes_emt.shunt.robust.design_robust_shunt`.
     nominal : the point estimate of the nominal design: a fit (anything with ``model`` and
         ``theta``) or ``(model, theta, description)``; default the heaviest model's posterior median.
-    sampled : a :class:`~bayes_emt.shunt.batch_plant.SampledShunt` (digital realisation) entering
+    sampled : a :class:`~bayes_emt.shunt.batch.plant.SampledShunt` (digital realisation) entering
         every draw's stability.
     ohmmeter_tolerance : [Ω], compared with the stability margins besides the posterior's R0 spread.
     sources : names of the posteriors (file paths) for the messages; default the model labels.

@@ -1,17 +1,11 @@
-"""Text, HTML and JSON around the shunt results: the summary tables, and reading a saved
-:class:`~bayes_emt.shunt.design.ShuntDesign` back."""
+"""Text and HTML around the shunt results: the plain-text summary tables (units in every row)."""
 
 from __future__ import annotations
 
 import html
-import json
 import math
-from dataclasses import fields
-from pathlib import Path
 
-from ..errors import DataFormatError
-
-__all__ = ["design_summary", "html_table", "read_shunt_design", "design_from_json_dict", "table"]
+__all__ = ["design_summary", "html_table", "table"]
 
 
 def table(rows, header) -> list[str]:
@@ -51,41 +45,3 @@ def design_summary(d) -> str:
 def html_table(text: str) -> str:
     """A summary as preformatted HTML (notebooks)."""
     return f"<pre>{html.escape(text)}</pre>"
-
-
-def design_from_json_dict(rec: dict, *, where: str = "shunt design"):
-    """A :class:`~bayes_emt.shunt.design.ShuntDesign` from its :meth:`to_json_dict` (nulls, the JSON
-    form of non-finite numbers, read back as NaN, or +inf for an unstable design's attenuation)."""
-    from .design import ShuntDesign
-
-    if not isinstance(rec, dict):
-        raise DataFormatError(f"{where}: expected a JSON object")
-    names = [f.name for f in fields(ShuntDesign)]
-    missing = [n for n in names[:14] if n not in rec]
-    if missing:
-        raise DataFormatError(f"{where}: not a shunt design (missing {', '.join(missing)})")
-    kw = {}
-    for n in names:
-        if n not in rec:
-            continue
-        v = rec[n]
-        if v is None and n not in ("max_pole_real", "min_damping_ratio", "r0_uncertainty_ohm"):
-            v = math.inf if n == "attenuation_db" and not rec.get("stable", True) else math.nan
-        if n == "peaks":
-            v = tuple(tuple(p) for p in v)
-        elif n in ("warnings", "notes"):
-            v = tuple(dict(w) if isinstance(w, dict) else w for w in v)
-        kw[n] = v
-    return ShuntDesign(**kw)
-
-
-def read_shunt_design(path: str | Path):
-    """Read a design written by :meth:`ShuntDesign.save` (or ``shunt --json``)."""
-    p = Path(path)
-    try:
-        rec = json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise DataFormatError(f"{path}: no such file") from None
-    except (OSError, ValueError) as exc:
-        raise DataFormatError(f"{path}: not a JSON shunt design ({exc})") from None
-    return design_from_json_dict(rec, where=str(path))

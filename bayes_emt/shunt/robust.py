@@ -5,10 +5,10 @@ Given draws of one model's posterior, or an evidence-weighted mixture of several
 (:mod:`bayes_emt.shunt.draws`):
 
 1. **Per draw** the H∞-optimal ``(Rs, Cs)`` and its attenuation (batched Newton on the equal-peak
-   conditions, :mod:`bayes_emt.shunt.batch_design`): their distributions.
+   conditions, :mod:`bayes_emt.shunt.batch.design`): their distributions.
 2. **Nominal**: :func:`~bayes_emt.shunt.design_rc_shunt` at a point estimate (the posterior
    median of the heaviest model, or a fit), evaluated on every draw: attenuation [dB] and stability
-   (threshold per draw, :mod:`bayes_emt.shunt.batch_plant`).
+   (threshold per draw, :mod:`bayes_emt.shunt.batch.plant`).
 3. **Robust**: one ``(Rs, Cs)`` minimising a risk measure of the attenuation over the design half
    of the draws subject to ``P(unstable) ≤ ε`` (:mod:`bayes_emt.shunt.saa`).
 4. **Report on the held-back half** (draws the choice never saw): attenuation median and 90 %
@@ -32,9 +32,9 @@ import numpy as np
 
 from .._json import strict_json
 from ..models import Model
-from .batch_design import design_draws
-from .batch_peaks import rc_peaks_batch
-from .batch_plant import BatchPlant, SampledShunt
+from .batch.design import design_draws
+from .batch.peaks import rc_peaks_batch
+from .batch.plant import BatchPlant, SampledShunt
 from .design import design_rc_shunt, evaluate_rc_shunt
 from .draws import DrawGroup, split_halves
 from .report import describe_r0, exact_checks, explain_move, sensitivity

@@ -111,7 +111,7 @@ def run(args) -> int:
     if not args.implement and (any(v is not None for v in rig.values()) or args.delay is not None):
         raise ValueError("--r-in, --k-in, --k-out, --fs and --delay apply to --implement only")
     if args.posterior:
-        from ...shunt.batch_plant import SampledShunt
+        from ...shunt.batch.plant import SampledShunt
         from ._robust_shunt import run_posterior
 
         sampled = None
