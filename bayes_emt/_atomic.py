@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -46,13 +47,25 @@ def atomic_path(path: str | os.PathLike, suffix: str | None = None) -> Iterator[
         os.replace(tmp, path)
     except OSError as exc:
         raise _naming(exc, path, existed) from None
-    except RuntimeError as exc:  # h5py/netCDF report a failed write so
-        if "No space left" not in str(exc):
-            raise
-        raise _naming(OSError(errno.ENOSPC, os.strerror(errno.ENOSPC)), path, existed) from None
+    except RuntimeError as exc:  # h5py/netCDF report a failed write so ("NetCDF: HDF error")
+        raise _library_error(exc, path, existed) from None
     finally:
         with contextlib.suppress(OSError):
             tmp.unlink()
+
+
+def _library_error(exc: RuntimeError, path: Path, existed: bool) -> OSError:
+    """A file library's write failure (h5py, netCDF: often without the cause) as an ``OSError``
+    naming the target; a device with less than 1 MiB free is said to be full."""
+    try:
+        free = shutil.disk_usage(path.parent if str(path.parent) else ".").free
+    except OSError:
+        free = None
+    first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    if "No space left" in first or (free is not None and free < (1 << 20)):
+        why = os.strerror(errno.ENOSPC) + ("" if free is None else f" ({free / 1e6:.2f} MB free; {first})")
+        return _naming(OSError(errno.ENOSPC, why), path, existed)
+    return _naming(OSError(errno.EIO, first), path, existed)
 
 
 _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EACCES, errno.EPERM, errno.EROFS, errno.EFBIG, errno.EIO}

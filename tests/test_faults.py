@@ -243,6 +243,42 @@ def test_checkpoint_on_a_full_disk_one_line_no_segfault(small_disk, tmp_path, re
         assert checkpoint_steps(ckpt) > 0
 
 
+def test_sample_out_on_a_full_disk_names_it_and_keeps_the_previous(small_disk, tmp_path):
+    """netCDF says only "NetCDF: HDF error" when the disk fills: the message names the output and
+    says the disk is full; the previous output and the checkpoint (elsewhere) are intact."""
+    (small_disk / "filler").write_bytes(b"\0" * 1_900_000)
+    out = small_disk / "out.nc"
+    out.write_text("previous")
+    args = [*SAMPLE, "--max-steps", "300", "--out", str(out), "--checkpoint", str(tmp_path / "run.h5")]
+    r = subprocess.run([sys.executable, "-m", "bayes_emt.cli", *args], env=_env(), capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 2, r.stderr[-3000:]
+    line = _one_line(r.stderr)
+    assert line.startswith(f"bayes-emt: error: {out}: cannot write: No space left on device")
+    assert "(the previous out.nc is unchanged)" in line
+    assert out.read_text() == "previous"
+    assert sorted(p.name for p in small_disk.iterdir()) == ["filler", "out.nc"]
+    assert checkpoint_steps(tmp_path / "run.h5") == 300
+
+
+def test_library_write_error_on_a_full_disk_is_named(tmp_path, monkeypatch):
+    import shutil
+    from collections import namedtuple
+
+    target = tmp_path / "post.nc"
+
+    def netcdf_fails(self, *a, **k):
+        raise RuntimeError("NetCDF: HDF error")
+
+    monkeypatch.setattr(Path, "write_text", netcdf_fails)
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: namedtuple("U", "total used free")(1, 1, 1000))
+    with pytest.raises(OSError) as exc:
+        atomic_write_text(target, "x")
+    assert exc.value.errno == errno.ENOSPC
+    assert str(exc.value) == (f"{target}: cannot write: No space left on device (0.00 MB free; "
+                              "NetCDF: HDF error)")
+
+
 # ---- corrupted and truncated checkpoints -----------------------------------------------------------
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory):
