@@ -183,6 +183,9 @@ def test_robust_shunt_mixture_weights_and_roundtrip(posts, tmp_path):
     res = robust_shunt([nl, ud], log_z={"NL(5)": 0.0, "UD": -1.0}, n_draws=40, seed=1)
     w = {g["label"]: g["weight"] for g in res.report["models"]}
     assert w["NL(5)"] == pytest.approx(1 / (1 + math.exp(-1))) and w["UD"] == pytest.approx(1 - w["NL(5)"])
+    comparison = type("Comparison", (), {"log_z": {"NL(5)": 0.0, "UD": -1.0}})()
+    again = robust_shunt([nl, ud], log_z=comparison, n_draws=40, seed=1)
+    assert again.robust == res.robust
     eq = robust_shunt([nl, ud], weights="equal", n_draws=40, seed=1)
     assert [g["weight"] for g in eq.report["models"]] == [0.5, 0.5]
     assert "model_spread" in res.nominal["r0_uncertainty"]

@@ -4,8 +4,8 @@ returns a frozen :class:`RobustShuntResult` (JSON, summary table, reader back).
 
 Weights: ``"evidence"`` (posterior model probabilities from the log evidences given as ``log_z``:
 a list in the posteriors' order, or a mapping model label → log Z [nats], e.g. from a comparison;
-equal prior odds), ``"equal"``, or a list of non-negative numbers (normalised). The evidence is
-never computed here.
+equal prior odds; an object carrying such a mapping as ``.log_z`` or ``.log_evidence`` also does),
+``"equal"``, or a list of non-negative numbers (normalised). The evidence is never computed here.
 
 The numbers are :func:`~bayes_emt.shunt.robust.design_robust_shunt`'s (draws through
 :func:`~bayes_emt.shunt.draws.sample_mixture`, the ESS fraction from the posteriors' ESS); this
@@ -37,6 +37,14 @@ def posterior_weights(models, weights="evidence", log_z=None) -> tuple[np.ndarra
     or None, note)``."""
     n = len(models)
     labels = [m.label for m in models]
+    if log_z is not None and not isinstance(log_z, Mapping | list | tuple | np.ndarray):
+        # a comparison result: its mapping model label -> log Z under a usual name
+        table = next((getattr(log_z, a) for a in ("log_z", "log_evidence", "log_evidences")
+                      if isinstance(getattr(log_z, a, None), Mapping)), None)
+        if table is None:
+            raise TypeError("log_z must be a list of log evidences, a mapping model label -> log Z, or an "
+                            "object with such a mapping as .log_z or .log_evidence")
+        log_z = table
     if log_z is not None:
         if isinstance(log_z, Mapping):
             missing = [lb for lb in labels if lb not in log_z]
