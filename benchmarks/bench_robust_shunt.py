@@ -31,8 +31,8 @@ from bayes_emt import build_model  # noqa: E402
 from bayes_emt.estimation.fitting import fit_admittance  # noqa: E402
 from bayes_emt.io.datasets import load_paper_bench  # noqa: E402
 from bayes_emt.shunt import design_rc_shunt  # noqa: E402
-from bayes_emt.shunt.batch_design import design_draws  # noqa: E402
-from bayes_emt.shunt.batch_plant import BatchPlant  # noqa: E402
+from bayes_emt.shunt.batch.design import design_draws  # noqa: E402
+from bayes_emt.shunt.batch.plant import BatchPlant  # noqa: E402
 from bayes_emt.shunt.draws import DrawGroup  # noqa: E402
 from bayes_emt.shunt.robust import design_robust_shunt  # noqa: E402
 

@@ -48,7 +48,7 @@ from bayes_emt.inference.sampling import sample_posterior
 from bayes_emt.io.datasets import PAPER_BENCH_SEED, load_paper_bench
 from bayes_emt.reference import PAPER_TABLES
 from bayes_emt.shunt import design_rc_shunt
-from bayes_emt.shunt.batch_plant import BatchPlant
+from bayes_emt.shunt.batch.plant import BatchPlant
 from bayes_emt.shunt.draws import mixture_weights, sample_mixture
 from bayes_emt.shunt.risk import clopper_pearson, summary
 from bayes_emt.shunt.robust import design_robust_shunt

@@ -11,9 +11,9 @@ from scipy import optimize
 from bayes_emt import build_model
 from bayes_emt.reference import PAPER_TABLES
 from bayes_emt.shunt import Plant, design_rc_shunt, instability_threshold, rc_impedance
-from bayes_emt.shunt.batch_design import design_draws
-from bayes_emt.shunt.batch_peaks import rc_peaks_batch
-from bayes_emt.shunt.batch_plant import BatchPlant, SampledShunt, terminal_impedance
+from bayes_emt.shunt.batch.design import design_draws
+from bayes_emt.shunt.batch.peaks import rc_peaks_batch
+from bayes_emt.shunt.batch.plant import BatchPlant, SampledShunt, terminal_impedance
 from bayes_emt.shunt.draws import mixture_weights, sample_mixture, split_halves
 from bayes_emt.shunt.implementation import sampled_loop_max_pole
 from bayes_emt.shunt.risk import clopper_pearson, cvar, quantiles, risk_value, spearman, summary

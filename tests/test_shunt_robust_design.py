@@ -19,7 +19,7 @@ from bayes_emt.inference.posterior import Posterior
 from bayes_emt.io.datasets import paper_bench_path
 from bayes_emt.reference import PAPER_TABLES
 from bayes_emt.shunt import design_rc_shunt
-from bayes_emt.shunt.batch_plant import BatchPlant, SampledShunt
+from bayes_emt.shunt.batch.plant import BatchPlant, SampledShunt
 from bayes_emt.shunt.draws import DrawGroup, sample_mixture
 from bayes_emt.shunt.robust import design_robust_shunt
 from bayes_emt.shunt.saa import DrawPool, _score, choose_robust

@@ -5,6 +5,11 @@ Sub-commands live one per module in :mod:`bayes_emt.cli.commands`; each module d
 (bad files, bad options, output paths that cannot be written, :mod:`bayes_emt.cli.paths`) print
 one line ``bayes-emt: error: ...`` and exit with code 2, option errors found by the parser
 included (``bayes-emt: error: argument --seed: ...``); never a traceback.
+
+SIGINT and SIGTERM raise :class:`~bayes_emt.errors.Interrupted` (the sampler holds them until the
+end of the step in progress, :mod:`bayes_emt.inference.sampling`); the command prints one line
+(``bayes-emt: interrupted; checkpoint FILE is intact (N steps stored), continue with --resume``)
+and exits with 130 (SIGINT) or 143 (SIGTERM). Both signals are ignored while that line is printed.
 """
 
 from __future__ import annotations
@@ -12,11 +17,13 @@ from __future__ import annotations
 import argparse
 import importlib
 import pkgutil
+import signal
 import sys
+import threading
 import time
 import warnings
 
-from ..errors import BayesEMTError
+from ..errors import BayesEMTError, Interrupted
 from . import commands
 
 __all__ = ["main", "build_parser"]
@@ -52,7 +59,31 @@ def _showwarning(message, category, filename, lineno, file=None, line=None):
     print(f"bayes-emt: warning: {message}", file=sys.stderr)
 
 
+def _raise_interrupted(signum, frame):
+    raise Interrupted(signum)
+
+
 def main(argv: list[str] | None = None) -> int:
+    in_main = threading.current_thread() is threading.main_thread()
+    old = {}
+    if in_main:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            old[sig] = signal.signal(sig, _raise_interrupted)
+    try:
+        return _main(argv)
+    except KeyboardInterrupt as exc:
+        if in_main:
+            for sig in old:
+                signal.signal(sig, signal.SIG_IGN)
+        text = str(exc) if isinstance(exc, Interrupted) else ""
+        print(f"bayes-emt: {text or 'interrupted'}", file=sys.stderr)
+        return exc.exit_code if isinstance(exc, Interrupted) else 130
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -71,9 +102,6 @@ def main(argv: list[str] | None = None) -> int:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"bayes-emt: error: {msg}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("bayes-emt: interrupted", file=sys.stderr)
-        return 130
     return int(rc or 0)
 
 

@@ -65,12 +65,26 @@ stores no step removes the checkpoint it created, and a checkpoint holding no st
 the next run (:mod:`bayes_emt.inference.checkpoint`). A parameter whose walkers never moved has no
 autocorrelation time (emcee's estimate is 0/0): it counts as correlated over the whole chain and
 the run as not converged, with a message saying so.
+
+Interrupts and concurrent runs
+------------------------------
+A run holds the checkpoint's lock (:class:`~bayes_emt.inference.checkpoint.CheckpointLock`) from
+before it reads or creates the file to after its last write: a second run on the same file is
+refused in one line. SIGINT (and SIGTERM, when the program has turned it into an exception, as the
+command line does) are held while the sampler steps and acted on between two steps
+(:class:`_HeldSignals`): emcee's log-probability wrapper catches *every* exception, KeyboardInterrupt
+included, and prints its traceback and arguments before re-raising, which is what a Ctrl-C showed
+whenever it arrived inside a model evaluation. The run then raises
+:class:`~bayes_emt.errors.Interrupted` saying how many steps the checkpoint holds; ``resume``
+continues from there to the same chain.
 """
 
 from __future__ import annotations
 
 import math
+import signal
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -80,12 +94,13 @@ from pathlib import Path
 import emcee
 import numpy as np
 
-from ..errors import ConvergenceWarning
+from ..errors import ConvergenceWarning, Interrupted, PriorConflictWarning
 from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import Model
 from ..params import ParamSet
-from .checkpoint import ChainStore, check_checkpoint, checkpoint_steps, read_identity
+from ..params.priors import LogNormal, LogUniform, Normal, Uniform
+from .checkpoint import ChainStore, CheckpointLock, check_checkpoint, checkpoint_steps, read_identity
 from .likelihood import Likelihood, LikelihoodKind
 from .moves import MOVES_DESCRIPTION, SnookerMove, production_moves, proposal_mismatch, warmup_moves
 from .posterior import Posterior
@@ -226,6 +241,63 @@ def _verdict_message(v: dict, max_steps: int, settings: SamplerSettings) -> str:
     return f"not converged within {max_steps} steps: " + ", ".join(why)
 
 
+PRIOR_TAIL_Z = 4.0  # a posterior median this many prior standard deviations out: the prior's far tail
+_BOUND_FRACTION = 1e-3  # of the prior's (log-)range: draws this close to a bound are piled against it
+
+
+def prior_conflicts(params, draws: np.ndarray) -> list[dict]:
+    """Parameters whose posterior sits in the far tail of their prior: the data and the prior
+    disagree (a ``--priors`` file that excludes what the data say).
+
+    ``draws`` are physical values ``(n, k)``. A normal or log-normal prior is in conflict when the
+    draws' median lies more than :data:`PRIOR_TAIL_Z` prior standard deviations (of x, or of log x)
+    from the prior's centre; a uniform or log-uniform prior when more than half the draws lie within
+    :data:`_BOUND_FRACTION` of its range from one bound (the posterior piled against it). Returns
+    ``{"name", "median", "unit", "prior", "how"}`` per parameter in conflict."""
+    out = []
+    draws = np.asarray(draws, float)
+    if draws.ndim != 2 or draws.shape[0] == 0:
+        return out
+    for i, spec in enumerate(params):
+        x = draws[:, i]
+        x = x[np.isfinite(x)]
+        if x.size == 0:
+            continue
+        med = float(np.median(x))
+        pr = spec.prior
+        how = None
+        if isinstance(pr, Normal | LogNormal):
+            if isinstance(pr, Normal):
+                z = (med - pr.mu) / pr.sigma
+                centre = f"{pr.mu:.4g}"
+            else:
+                z = (math.log(med) - math.log(pr.median)) / pr.sigma_log if med > 0 else -math.inf
+                centre = f"{pr.median:.4g}"
+            if abs(z) > PRIOR_TAIL_Z:
+                how = (f"{abs(z):.3g} prior standard deviations {'above' if z > 0 else 'below'} the prior's "
+                       f"centre {centre} {spec.unit}")
+        elif isinstance(pr, Uniform | LogUniform):
+            if isinstance(pr, LogUniform):
+                u = (np.log(x) - math.log(pr.lower)) / math.log(pr.upper / pr.lower)
+            else:
+                u = (x - pr.lower) / (pr.upper - pr.lower)
+            for side, near, bound in (("lower", u < _BOUND_FRACTION, pr.lower),
+                                      ("upper", u > 1 - _BOUND_FRACTION, pr.upper)):
+                if np.mean(near) > 0.5:
+                    how = (f"{100 * np.mean(near):.0f} % of the draws against the prior's {side} bound "
+                           f"{bound:.4g} {spec.unit}")
+        if how is not None:
+            out.append({"name": spec.name, "median": med, "unit": spec.unit, "prior": pr.to_dict(),
+                        "how": how})
+    return out
+
+
+def _conflict_message(conflicts: list[dict]) -> str:
+    parts = [f"{c['name']} (posterior median {c['median']:.4g} {c['unit']}, {c['how']})" for c in conflicts]
+    return ("the posterior lies in the far tail of the prior of " + "; ".join(parts)
+            + ": the prior contradicts the data there; widen or recentre it (--priors), or check the data")
+
+
 def _run_identity(target, seed: int, nwalkers: int, settings: SamplerSettings) -> dict:
     return {**target.identity(), "seed": int(seed), "nwalkers": int(nwalkers),
             "reseed_every": settings.reseed_every, "warmup": settings.warmup, "moves": MOVES_DESCRIPTION}
@@ -267,6 +339,55 @@ def _open_store(checkpoint, resume, overwrite, ident, nwalkers, ndim, reseed_eve
         path.unlink(missing_ok=True)
         raise
     return store
+
+
+class _HeldSignals:
+    """Hold SIGINT/SIGTERM while emcee steps (module docstring): the handler only records the
+    signal; :meth:`check`, called between steps, raises :class:`~bayes_emt.errors.Interrupted`.
+    SIGINT is held whenever its handler raises (Python's default); SIGTERM only when the program
+    installed a handler of its own (the default, ending the process, is left alone). Only in the
+    main thread (elsewhere signals are not delivered to Python code)."""
+
+    def __init__(self):
+        self.signum: int | None = None
+        self._old: dict = {}
+
+    def __enter__(self):
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            old = signal.getsignal(sig)
+            if callable(old) and (sig == signal.SIGINT or old is not signal.default_int_handler):
+                self._old[sig] = old
+                signal.signal(sig, self._record)
+        return self
+
+    def _record(self, signum, frame):
+        if self.signum is None:
+            self.signum = signum
+
+    def check(self) -> None:
+        if self.signum is not None:
+            raise Interrupted(self.signum)
+
+    def __exit__(self, *exc):
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old = {}
+        return False
+
+
+def _interrupted(exc: KeyboardInterrupt, checkpoint) -> Interrupted:
+    """The exception a stopped run raises: what the checkpoint holds, and how to continue."""
+    signum = getattr(exc, "signum", signal.SIGINT)
+    if checkpoint is None:
+        return Interrupted(signum, "interrupted; no checkpoint was kept (the chain is lost)")
+    steps = checkpoint_steps(checkpoint)
+    if not steps:
+        return Interrupted(signum, f"interrupted before the first block of steps was stored; nothing kept "
+                                   f"(no checkpoint {checkpoint})")
+    return Interrupted(signum, f"interrupted; checkpoint {checkpoint} is intact ({steps} steps stored), "
+                               "continue with --resume")
 
 
 def _acceptance(chain: np.ndarray, burn: int) -> float:
@@ -335,6 +456,57 @@ class _Phases:
         return starts[-1] if starts else 0
 
 
+def _run_locked(target, start, seed, max_steps, checkpoint, resume, overwrite, progress, settings, ident,
+                nwalkers, ndim):
+    """The body of :func:`run_ensemble`, run while holding the checkpoint's lock."""
+    store = _open_store(checkpoint, resume, overwrite, ident, nwalkers, ndim, settings.reseed_every)
+    progress = sys.stderr.isatty() if progress is None else bool(progress)
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=max_steps, initial=min(store.iteration, max_steps), disable=not progress,
+               file=sys.stderr, desc=f"emcee {target.label}", unit="step", leave=False)
+    history: list[dict] = []
+    verdict = None
+    tau_cache: dict = {}
+    try:
+        z0 = start(nwalkers) if store.iteration == 0 else None
+        phases = _Phases(target, nwalkers, store, settings.warmup)
+        with _HeldSignals() as held:
+            while True:
+                n = store.iteration
+                sampler = phases.at(n)
+                if n > 0 and (n % settings.check_every == 0 or n >= max_steps):
+                    verdict = stopping_rule(store.get_chain(), n, settings, phases.start(n), tau_cache)
+                    history.append(verdict)
+                    bar.set_postfix(tau_max=f"{verdict['tau_max']:.0f}", n_tau=f"{verdict['n_over_tau']:.0f}",
+                                    ess=f"{verdict['ess_min']:.0f}")
+                    if verdict["converged"] or n >= max_steps:
+                        break
+                held.check()
+                block = n // settings.reseed_every
+                seg = min((block + 1) * settings.reseed_every - n, max_steps - n)
+                if n == 0:
+                    state = emcee.State(z0, random_state=_block_state(seed, 0))
+                else:
+                    state = store.get_last_sample()
+                    state.random_state = _block_state(seed, block)
+                # emcee's run_mcmc, a step at a time, acting on a held signal between steps
+                for _ in sampler.sample(state, iterations=seg, skip_initial_state_check=n > 0):
+                    held.check()
+                store.flush()
+                bar.update(seg)
+    except BaseException as exc:
+        # a run that stored no step leaves no checkpoint of its own making behind
+        if checkpoint is not None and not resume and checkpoint_steps(checkpoint) in (0, None):
+            Path(checkpoint).unlink(missing_ok=True)
+        if isinstance(exc, KeyboardInterrupt):
+            raise _interrupted(exc, checkpoint) from None
+        raise
+    finally:
+        bar.close()
+    return store, verdict, history, phases, tau_cache
+
+
 def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, max_steps: int | None = None,
                  checkpoint: str | Path | None = None, resume: bool = False, overwrite: bool = False,
                  progress: bool | None = None, settings: SamplerSettings = SamplerSettings()) -> dict:
@@ -358,53 +530,29 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
     nwalkers = max(settings.walkers_per_dim * ndim, 2 * ndim + 2)
     nwalkers += nwalkers % 2
     ident = _run_identity(target, seed, nwalkers, settings)
-    store = _open_store(checkpoint, resume, overwrite, ident, nwalkers, ndim, settings.reseed_every)
-    progress = sys.stderr.isatty() if progress is None else bool(progress)
-    from tqdm.auto import tqdm
-
-    bar = tqdm(total=max_steps, initial=min(store.iteration, max_steps), disable=not progress,
-               file=sys.stderr, desc=f"emcee {target.label}", unit="step", leave=False)
-    history: list[dict] = []
-    verdict = None
-    tau_cache: dict = {}
+    lock = None if checkpoint is None else CheckpointLock(checkpoint).acquire()
     try:
-        z0 = start(nwalkers) if store.iteration == 0 else None
-        phases = _Phases(target, nwalkers, store, settings.warmup)
-        while True:
-            n = store.iteration
-            sampler = phases.at(n)
-            if n > 0 and (n % settings.check_every == 0 or n >= max_steps):
-                verdict = stopping_rule(store.get_chain(), n, settings, phases.start(n), tau_cache)
-                history.append(verdict)
-                bar.set_postfix(tau_max=f"{verdict['tau_max']:.0f}", n_tau=f"{verdict['n_over_tau']:.0f}",
-                                ess=f"{verdict['ess_min']:.0f}")
-                if verdict["converged"] or n >= max_steps:
-                    break
-            block = n // settings.reseed_every
-            seg = min((block + 1) * settings.reseed_every - n, max_steps - n)
-            if n == 0:
-                state = emcee.State(z0, random_state=_block_state(seed, 0))
-            else:
-                state = store.get_last_sample()
-                state.random_state = _block_state(seed, block)
-            sampler.run_mcmc(state, seg, skip_initial_state_check=n > 0)
-            store.flush()
-            bar.update(seg)
-    except BaseException:
-        # a run that stored no step leaves no checkpoint of its own making behind
-        if checkpoint is not None and not resume and checkpoint_steps(checkpoint) in (0, None):
-            Path(checkpoint).unlink(missing_ok=True)
-        raise
+        store, verdict, history, phases, tau_cache = _run_locked(
+            target, start, seed, max_steps, checkpoint, resume, overwrite, progress, settings, ident,
+            nwalkers, ndim)
     finally:
-        bar.close()
+        if lock is not None:
+            lock.release()
     message = _verdict_message(verdict, max_steps, settings)
-    if not verdict["converged"]:
-        warnings.warn(f"{target.label}: {message}", ConvergenceWarning, stacklevel=3)
     chain = store.get_chain()
     s0 = phases.start(chain.shape[0])
     cached = tau_cache.get((s0, chain.shape[0] - s0))
     tau = integrated_time(chain[s0:]) if cached is None else cached[0]
     burn = min(s0 + int(math.ceil(2 * np.max(tau))), chain.shape[0] - 1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        conflicts = prior_conflicts(target.params, target.params.from_z(chain[burn:].reshape(-1, ndim)))
+    if conflicts:
+        # the specific cause first: a chain stuck in the prior's far tail also fails to converge
+        conflict = _conflict_message(conflicts)
+        message = (f"{conflict} ({message})" if not verdict["converged"] else f"{message}; but {conflict}")
+        warnings.warn(f"{target.label}: {conflict}", PriorConflictWarning, stacklevel=3)
+    if not verdict["converged"]:
+        warnings.warn(f"{target.label}: {message}", ConvergenceWarning, stacklevel=3)
     return {"chain": chain, "log_prob": store.get_log_prob(), "blobs": store.get_blobs(), "tau": tau,
             "burn": burn, "max_draws": settings.max_draws,
             "converged": verdict["converged"], "seed": seed, "message": message, "history": history,

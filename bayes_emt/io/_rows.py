@@ -7,7 +7,9 @@ Every problem raises :class:`~bayes_emt.errors.DataFormatError` as ``path:line: 
 from __future__ import annotations
 
 import math
+import os
 import re
+import stat
 import warnings
 from pathlib import Path
 
@@ -17,9 +19,15 @@ from ..errors import DataFormatError
 from ..measurement import Measurement
 
 __all__ = ["MIN_POINTS", "read_text", "split_cells", "detect_delimiter", "numeric_rows", "check_rows",
-           "finish"]
+           "check_scale", "finish", "MAX_FREQ_HZ", "Z_RANGE_OHM"]
 
 MIN_POINTS = 3
+MAX_FREQ_HZ = 1e12  # no electromechanical transducer is measured above 1 THz
+# |Z| outside this range [ohm] is a scaling or unit error, not a transducer (and its square, in the
+# fit, would under- or overflow)
+Z_RANGE_OHM = (1e-9, 1e12)
+_KIND = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
+         (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
 _DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+(?:[eE][-+]?\d+)?$")
 _BOMS = ((b"\xff\xfe\x00\x00", "utf-32-le"), (b"\x00\x00\xfe\xff", "utf-32-be"), (b"\xff\xfe", "utf-16-le"),
          (b"\xfe\xff", "utf-16-be"))
@@ -46,11 +54,21 @@ def _wide_encoding(raw: bytes) -> str | None:
 def read_text(path: Path) -> str:
     """The file's text (UTF-8, Latin-1, or UTF-16/32 with or without a byte-order mark); raise for
     a missing, empty, folder or binary file."""
-    if not path.exists():
-        raise DataFormatError(f"{path}: no such file")
-    if path.is_dir():
+    try:
+        mode = os.stat(path).st_mode  # stat never blocks, an open of a FIFO does (for good)
+    except FileNotFoundError:
+        raise DataFormatError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise DataFormatError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(mode):
         raise DataFormatError(f"{path}: is a folder, not a measurement file")
-    raw = path.read_bytes()
+    if not stat.S_ISREG(mode):
+        kind = next((name for test, name in _KIND if test(mode)), "not a regular file")
+        raise DataFormatError(f"{path}: is {kind}, not a measurement file (only regular files are read)")
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise DataFormatError(f"{path}: cannot read: {exc.strerror or exc}") from None
     if not raw.strip():
         raise DataFormatError(f"{path}: empty file")
     wide = _wide_encoding(raw)
@@ -144,8 +162,11 @@ def numeric_rows(lines: list[tuple[int, str]], delim: str | None, ncols: int, pa
     return out
 
 
-def check_rows(arr: np.ndarray, linenos: list[int], path: Path, *, magnitude_col: int | None) -> None:
-    """Point count, positive frequencies (column 0) and magnitudes, no duplicate frequencies."""
+def check_rows(arr: np.ndarray, linenos: list[int], path: Path, *, magnitude_col: int | None,
+               notices: list[str] | None = None) -> tuple[np.ndarray, list[int]]:
+    """Point count, positive frequencies (column 0), positive magnitudes, and duplicate frequencies:
+    a row repeated exactly is dropped with a notice (and a warning), a frequency given two
+    different values is an error naming both lines. Returns the rows kept and their line numbers."""
     if arr.shape[0] < MIN_POINTS:
         raise DataFormatError(f"{path}: only {arr.shape[0]} data points (need at least {MIN_POINTS})")
     bad = np.flatnonzero(arr[:, 0] <= 0)
@@ -157,11 +178,47 @@ def check_rows(arr: np.ndarray, linenos: list[int], path: Path, *, magnitude_col
             raise DataFormatError(f"{path}:{linenos[bad[0]]}: non-positive magnitude "
                                   f"{arr[bad[0], magnitude_col]:g}")
     seen: dict[float, int] = {}
+    keep = []
     for i, f in enumerate(arr[:, 0]):
         if f in seen:
+            j = seen[f]
+            if np.array_equal(arr[i], arr[j]):
+                msg = (f"{path}:{linenos[i]}: repeats line {linenos[j]} exactly (frequency {f:g}); "
+                       "read once")
+                warnings.warn(msg, UserWarning, stacklevel=4)
+                if notices is not None:
+                    notices.append(msg)
+                continue
             raise DataFormatError(f"{path}:{linenos[i]}: duplicate frequency {f:g} "
-                                  f"(also on line {linenos[seen[f]]})")
+                                  f"(also on line {linenos[j]}) with different values")
         seen[f] = i
+        keep.append(i)
+    if len(keep) < arr.shape[0]:
+        arr, linenos = arr[keep], [linenos[i] for i in keep]
+        if arr.shape[0] < MIN_POINTS:
+            raise DataFormatError(f"{path}: only {arr.shape[0]} distinct data points (need at least "
+                                  f"{MIN_POINTS})")
+    return arr, linenos
+
+
+def check_scale(freq_hz: np.ndarray, Z_abs: np.ndarray, linenos: list[int], path: Path) -> None:
+    """Refuse a frequency above :data:`MAX_FREQ_HZ` or a finite |Z| outside :data:`Z_RANGE_OHM`
+    (an absurd scale that overflows later), naming the line. Values may be inf (an overflow
+    while converting): that is refused too."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        bad = np.flatnonzero(~(freq_hz <= MAX_FREQ_HZ))
+    if bad.size:
+        i = bad[0]
+        raise DataFormatError(f"{path}:{linenos[i]}: frequency {freq_hz[i]:.4g} Hz is beyond any "
+                              f"transducer's band (at most {MAX_FREQ_HZ:g} Hz)"
+                              "; check the frequency column's unit")
+    lo, hi = Z_RANGE_OHM
+    with np.errstate(over="ignore", invalid="ignore"):
+        bad = np.flatnonzero(~((Z_abs >= lo) & (Z_abs <= hi)))
+    if bad.size:
+        i = bad[0]
+        raise DataFormatError(f"{path}:{linenos[i]}: |Z| = {Z_abs[i]:.4g} ohm is outside {lo:g}..{hi:g} ohm, "
+                              "no transducer's impedance: check the values' unit or scale")
 
 
 def finish(omega: np.ndarray, Y: np.ndarray, linenos: list[int], path: Path, meta: dict,
@@ -171,6 +228,8 @@ def finish(omega: np.ndarray, Y: np.ndarray, linenos: list[int], path: Path, met
     if bad.size:
         raise DataFormatError(f"{path}:{linenos[bad[0]]}: value maps to an infinite or zero "
                               "impedance/admittance")
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        check_scale(omega / (2 * math.pi), 1.0 / np.abs(Y), linenos, path)
     down = np.flatnonzero(np.diff(omega) < 0)
     if down.size:
         msg = (f"{path}:{linenos[down[0] + 1]}: frequencies are not in increasing order; "

@@ -23,6 +23,7 @@ from ..errors import DataFormatError
 from ..measurement import Measurement
 from ._rows import (
     check_rows,
+    check_scale,
     detect_delimiter,
     finish,
     is_numeric_line,
@@ -108,6 +109,27 @@ def _comment_header(comment: tuple[int, str], first_data: int, text: str,
     return lineno, cand
 
 
+_SPL = re.compile(r"(?<![a-z])(spl|db\s*spl|dbspl|sound[\s_-]*pressure|db\s*\(?\s*20\s*µ?u?pa|"
+                  r"pa/v|db/v|db\s*re\s*20)", re.IGNORECASE)
+
+
+def _refuse_sound_pressure(path: Path, comments: list[str], header: str | None, header_line) -> None:
+    """An SPL / frequency-response export (``.frd``, or a header or comment naming SPL or sound
+    pressure) is refused as such: it holds the acoustic output, not the electrical impedance."""
+    where = None
+    if path.suffix.lower() == ".frd":
+        where = f"{path}: a .frd file"
+    elif header is not None and _SPL.search(header):
+        where = f"{path}:{header_line}: header {header!r}"
+    else:
+        hit = next((c for c in comments if _SPL.search(c)), None)
+        if hit is not None:
+            where = f"{path}: comment {hit[:60]!r}"
+    if where is not None:
+        raise DataFormatError(f"{where}: a sound-pressure (SPL) frequency response, not an impedance; "
+                              "export the impedance (|Z| and phase, or Z/Y parts) of the same measurement")
+
+
 def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measurement:
     """Read a ``.zma`` or delimited text table; ``options`` holds normalised ``freq_unit``,
     ``phase_unit`` and ``quantity`` (``None`` where not given)."""
@@ -133,6 +155,7 @@ def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measure
         header_line, header = _comment_header(last_comment, body[0][0], text, path)
         if header is not None:
             notices.append(f"column names taken from comment line {header_line}")
+    _refuse_sound_pressure(path, comments, header, header_line)
     delim = detect_delimiter(body[0][1])
     decimal_comma = any(uses_decimal_comma(ln, delim) for _, ln in body)
     if decimal_comma:
@@ -159,21 +182,26 @@ def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measure
     arr = numeric_rows(body, delim, ncols, path, decimal_comma=decimal_comma, what=what)
     linenos = [ln for ln, _ in body]
     _check_thousands_separator(arr[:, 0], body, delim, path)
-    check_rows(arr, linenos, path, magnitude_col=lay.cols[0] if lay.rep == "magphase" else None)
+    arr, linenos = check_rows(arr, linenos, path, notices=notices,
+                              magnitude_col=lay.cols[0] if lay.rep == "magphase" else None)
     a, b = arr[:, lay.cols[0]] * (lay.scale * lay.signs[0]), arr[:, lay.cols[1]] * lay.signs[1]
     if min(lay.signs) < 0:
         notices.append("values of the column(s) named with a leading minus were negated")
-    if lay.freq_unit == "rad/s":
-        omega = arr[:, 0].copy()
-    else:
-        omega = 2 * math.pi * freq_scale(lay.freq_unit) * arr[:, 0]
-    if lay.rep == "magphase":
-        val = a * np.exp(1j * _phase_radians(b, lay, linenos, path, notices))
-    else:
-        val = a + 1j * b * lay.scale
-        bad = np.flatnonzero(val == 0)
-        if bad.size:
-            raise DataFormatError(f"{path}:{linenos[bad[0]]}: zero impedance/admittance (both parts 0)")
+    # absurd scales (1e300 Hz, |Z| = 1e-320) are refused by name, not by numpy's overflow warnings
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
+        if lay.freq_unit == "rad/s":
+            omega = arr[:, 0].copy()
+        else:
+            omega = 2 * math.pi * freq_scale(lay.freq_unit) * arr[:, 0]
+        if lay.rep == "magphase":
+            val = a * np.exp(1j * _phase_radians(b, lay, linenos, path, notices))
+        else:
+            val = a + 1j * b * lay.scale
+            bad = np.flatnonzero(val == 0)
+            if bad.size:
+                raise DataFormatError(f"{path}:{linenos[bad[0]]}: zero impedance/admittance (both parts 0)")
+        check_scale(omega / (2 * math.pi), np.abs(val) if lay.quantity == "Z" else 1.0 / np.abs(val),
+                    linenos, path)
     weights = None
     if lay.weights:
         weights = arr[:, 3]
@@ -197,9 +225,18 @@ def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measure
 
 def _check_thousands_separator(freq: np.ndarray, body: list[tuple[int, str]], delim, path: Path) -> None:
     """Refuse a frequency that falls below its predecessor and is written like ``1.000``: a '.'
-    thousands separator read as a decimal point (1.000 Hz after 500 Hz, meaning 1000 Hz)."""
+    thousands separator read as a decimal point (1.000 Hz after 500 Hz, meaning 1000 Hz).
+
+    Only when reading every such '.' as a separator makes the whole sweep rise: a sweep written
+    from high to low frequency, or with rows out of order, is valid data (sorted, with a notice,
+    by ``finish``)."""
+    cells = [split_cells(text, delim)[0] for _, text in body]
+    alt = np.array([float(c.replace(".", "")) if _THOUSANDS.match(c) else f
+                    for c, f in zip(cells, freq, strict=True)])
+    if not np.all(np.diff(alt) > 0):
+        return
     for i in np.flatnonzero(np.diff(freq) < 0) + 1:
-        cell = split_cells(body[i][1], delim)[0]
+        cell = cells[i]
         if _THOUSANDS.match(cell):
             raise DataFormatError(
                 f"{path}:{body[i][0]}: frequency {cell!r} reads as {freq[i]:g}, below the {freq[i - 1]:g} of "

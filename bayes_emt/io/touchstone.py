@@ -133,7 +133,7 @@ def read_touchstone(path: Path, text: str) -> Measurement:
     if "n_freq" in state and state["n_freq"][1] != str(len(body)):
         raise DataFormatError(f"{path}:{state['n_freq'][0]}: [Number of Frequencies] says "
                               f"{state['n_freq'][1]} but there are {len(body)} data lines")
-    check_rows(arr, linenos, path, magnitude_col=None)
+    arr, linenos = check_rows(arr, linenos, path, magnitude_col=None, notices=notices)
     a, b = arr[:, 1], arr[:, 2]
     if opt["fmt"] == "ma":
         bad = np.flatnonzero(a < 0)
@@ -141,11 +141,12 @@ def read_touchstone(path: Path, text: str) -> Measurement:
             raise DataFormatError(f"{path}:{linenos[bad[0]]}: negative magnitude {a[bad[0]]:g}")
         x = a * np.exp(1j * np.deg2rad(b))
     elif opt["fmt"] == "db":
-        x = 10 ** (a / 20) * np.exp(1j * np.deg2rad(b))
+        with np.errstate(over="ignore"):
+            x = 10 ** (a / 20) * np.exp(1j * np.deg2rad(b))
     else:
         x = a + 1j * b
     R = opt["r"]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         if opt["param"] == "s":
             Z = R * (1 + x) / (1 - x)
         elif opt["param"] == "z":
@@ -158,7 +159,7 @@ def read_touchstone(path: Path, text: str) -> Measurement:
                "check the calibration")
         warnings.warn(msg, UserWarning, stacklevel=3)
         notices.append(msg)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         Y = 1.0 / Z
     bad = np.flatnonzero(~np.isfinite(Z) | ~np.isfinite(Y) | (Y == 0))
     if bad.size:
@@ -168,4 +169,6 @@ def read_touchstone(path: Path, text: str) -> Measurement:
             "representation": {"ma": "magphase", "db": "dbphase", "ri": "reim"}[opt["fmt"]],
             "touchstone_options": dict(opt), "touchstone_version": state["version"] or "1",
             "n_header_lines": body[0][0] - 1}
-    return finish(2 * math.pi * freq_scale(opt["unit"]) * arr[:, 0], Y, linenos, path, meta, notices)
+    with np.errstate(over="ignore"):
+        omega = 2 * math.pi * freq_scale(opt["unit"]) * arr[:, 0]
+    return finish(omega, Y, linenos, path, meta, notices)

@@ -22,20 +22,25 @@ Nelder–Mead on the refined peak. (3) The result is evaluated on the exact mode
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
 
 import numpy as np
 from scipy import optimize
 
 from .._json import strict_json
+from ..errors import DataFormatError
 from ..models import Model
 from .receptance import Plant, rc_impedance
+from .records import design_summary, html_table
+from .safety import check_margin
 from .stability import StabilityReport, assess_stability, instability_threshold, threshold_grid
 
 __all__ = ["ShuntDesign", "ShuntEvaluation", "ShuntWarning", "closed_form_rc", "design_rc_shunt",
-           "evaluate_rc_shunt"]
+           "evaluate_rc_shunt", "read_shunt_design", "design_from_json_dict"]
 
 
 class ShuntWarning(UserWarning):
@@ -77,9 +82,14 @@ class ShuntEvaluation:
     min_damping_ratio: float | None
     stability_method: str
 
+    @property
+    def stability_margin_ohm(self) -> float:
+        """``Rs − Rs_instability`` [Ω] (the same as ``stability_margin``, named with its unit)."""
+        return self.stability_margin
+
     def to_json_dict(self) -> dict:
         """Plain JSON types; non-finite numbers become null."""
-        return strict_json(asdict(self))
+        return strict_json({**asdict(self), "stability_margin_ohm": self.stability_margin_ohm})
 
 
 @dataclass(frozen=True)
@@ -93,12 +103,47 @@ class ShuntDesign(ShuntEvaluation):
     peaks : the local maxima of ``|m·G_RC|`` at the optimum, ``[(omega [rad/s], value [s²]), ...]``.
     optimum : ``"equal peaks"`` or ``"single peak"``.
     info : optimiser record (evaluations, method, whether the polish succeeded).
+    r0_uncertainty_ohm : the largest R0 half-width [Ω] the margin was compared with (``None``: none
+        given); ``r0_uncertainty`` per source (:mod:`bayes_emt.shunt.safety`).
+    warnings : ``({"code", "message"}, ...)``, e.g. ``stability_margin_below_uncertainty``.
+    notes : plain notes (parts that need a synthetic impedance; no R0 uncertainty given).
     """
 
     closed_form: dict = field(default_factory=dict)
     peaks: tuple = ()
     optimum: str = ""
     info: dict = field(default_factory=dict)
+    r0_uncertainty_ohm: float | None = None
+    r0_uncertainty: dict = field(default_factory=dict)
+    warnings: tuple = ()
+    notes: tuple = ()
+
+    @property
+    def R0(self) -> float:
+        """The R0 [Ω] the design assumed."""
+        return float(self.info.get("R0", math.nan))
+
+    def __repr__(self) -> str:
+        return (f"ShuntDesign({self.model}: Rs={self.Rs:.5g} ohm, Cs={self.Cs:.4g} F, "
+                f"{self.attenuation_db:.2f} dB, margin {self.stability_margin_ohm:.3g} ohm"
+                + (f", {len(self.warnings)} warning(s)" if self.warnings else "") + ")")
+
+    def summary(self) -> str:
+        """A plain-text table with units, then the warnings and notes."""
+        return design_summary(self)
+
+    def _repr_html_(self) -> str:
+        return html_table(self.summary())
+
+    def to_json(self) -> str:
+        """Strict JSON (no NaN) of :meth:`to_json_dict`."""
+        return json.dumps(self.to_json_dict(), indent=2, allow_nan=False)
+
+    def save(self, path) -> None:
+        """Write :meth:`to_json` atomically (read back with :func:`read_shunt_design`)."""
+        from .._atomic import atomic_write_text
+
+        atomic_write_text(path, self.to_json() + "\n")
 
 
 def closed_form_rc(model: Model, theta) -> dict:
@@ -247,7 +292,7 @@ def _capacitive_threshold(model: Model, theta, grid) -> str | None:
 
 
 def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = None,
-                    bandwidth: float | None = None) -> ShuntDesign:
+                    bandwidth: float | None = None, r0_uncertainty: dict | None = None) -> ShuntDesign:
     """The H∞-optimal RC shunt for ``model`` at ``theta`` (SPEC §4, eq. 50; module docstring).
 
     Cs is bounded above by ``Cs_max = 1e3/(L ω0²)`` (capacitive reactance at ω0 below 1e-3 of the
@@ -266,6 +311,9 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
         capacitance across the terminals the ideal loop is unstable for every negative Rs (a real pole
         near ``1/(|Rs| Cp)`` rad/s, far above any realisation's bandwidth): a :class:`ShuntWarning`
         says so and suggests giving the bandwidth.
+    r0_uncertainty : optional R0 half-widths [Ω] by source
+        (:func:`~bayes_emt.shunt.safety.r0_uncertainty`) the stability margin is compared with: a
+        smaller margin gives the warning ``stability_margin_below_uncertainty``.
 
     Returns
     -------
@@ -329,5 +377,46 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
     if math.isfinite(cf["Cs"]):
         cf_att = evaluate_rc_shunt(model, theta, cf["Rs"], cf["Cs"], plant=plant, grid=grid,
                                    bandwidth=bandwidth).attenuation_db
+    info["R0"] = plant.R0
+    safety = check_margin(ev.Rs, ev.Cs, ev.Rs_instability, plant.R0, r0_uncertainty,
+                          what=f"the {model.label} shunt")
     return ShuntDesign(**asdict(ev), closed_form={**cf, "attenuation_db": cf_att},
-                       peaks=tuple((p.omega, p.value) for p in final), optimum=optimum, info=info)
+                       peaks=tuple((p.omega, p.value) for p in final), optimum=optimum, info=info,
+                       r0_uncertainty_ohm=safety.r0_uncertainty_ohm, r0_uncertainty=safety.r0_uncertainty,
+                       warnings=safety.warnings, notes=safety.notes)
+
+
+def design_from_json_dict(rec: dict, *, where: str = "shunt design"):
+    """A :class:`~bayes_emt.shunt.design.ShuntDesign` from its :meth:`to_json_dict` (nulls, the JSON
+    form of non-finite numbers, read back as NaN, or +inf for an unstable design's attenuation)."""
+    if not isinstance(rec, dict):
+        raise DataFormatError(f"{where}: expected a JSON object")
+    names = [f.name for f in fields(ShuntDesign)]
+    missing = [n for n in names[:14] if n not in rec]
+    if missing:
+        raise DataFormatError(f"{where}: not a shunt design (missing {', '.join(missing)})")
+    kw = {}
+    for n in names:
+        if n not in rec:
+            continue
+        v = rec[n]
+        if v is None and n not in ("max_pole_real", "min_damping_ratio", "r0_uncertainty_ohm"):
+            v = math.inf if n == "attenuation_db" and not rec.get("stable", True) else math.nan
+        if n == "peaks":
+            v = tuple(tuple(p) for p in v)
+        elif n in ("warnings", "notes"):
+            v = tuple(dict(w) if isinstance(w, dict) else w for w in v)
+        kw[n] = v
+    return ShuntDesign(**kw)
+
+
+def read_shunt_design(path: str | Path):
+    """Read a design written by :meth:`ShuntDesign.save` (or ``shunt --json``)."""
+    p = Path(path)
+    try:
+        rec = json.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise DataFormatError(f"{path}: no such file") from None
+    except (OSError, ValueError) as exc:
+        raise DataFormatError(f"{path}: not a JSON shunt design ({exc})") from None
+    return design_from_json_dict(rec, where=str(path))

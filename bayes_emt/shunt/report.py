@@ -9,7 +9,7 @@ import math
 import numpy as np
 from scipy import optimize
 
-from .batch_plant import SampledShunt
+from .batch.plant import SampledShunt
 from .implementation import sampled_loop_max_pole
 from .risk import quantiles, spearman, summary
 from .stability import assess_stability

@@ -5,10 +5,10 @@ Given draws of one model's posterior, or an evidence-weighted mixture of several
 (:mod:`bayes_emt.shunt.draws`):
 
 1. **Per draw** the H∞-optimal ``(Rs, Cs)`` and its attenuation (batched Newton on the equal-peak
-   conditions, :mod:`bayes_emt.shunt.batch_design`): their distributions.
+   conditions, :mod:`bayes_emt.shunt.batch.design`): their distributions.
 2. **Nominal**: :func:`~bayes_emt.shunt.design_rc_shunt` at a point estimate (the posterior
    median of the heaviest model, or a fit), evaluated on every draw: attenuation [dB] and stability
-   (threshold per draw, :mod:`bayes_emt.shunt.batch_plant`).
+   (threshold per draw, :mod:`bayes_emt.shunt.batch.plant`).
 3. **Robust**: one ``(Rs, Cs)`` minimising a risk measure of the attenuation over the design half
    of the draws subject to ``P(unstable) ≤ ε`` (:mod:`bayes_emt.shunt.saa`).
 4. **Report on the held-back half** (draws the choice never saw): attenuation median and 90 %
@@ -32,14 +32,15 @@ import numpy as np
 
 from .._json import strict_json
 from ..models import Model
-from .batch_design import design_draws
-from .batch_peaks import rc_peaks_batch
-from .batch_plant import BatchPlant, SampledShunt
-from .design import design_rc_shunt
+from .batch.design import design_draws
+from .batch.peaks import rc_peaks_batch
+from .batch.plant import BatchPlant, SampledShunt
+from .design import design_rc_shunt, evaluate_rc_shunt
 from .draws import DrawGroup, split_halves
 from .report import describe_r0, exact_checks, explain_move, sensitivity
 from .risk import RISKS, RiskKind, clopper_pearson, quantiles, risk_value, summary
 from .saa import DrawPool, choose_robust
+from .safety import check_margin, r0_uncertainty
 
 __all__ = ["ShuntOnDraws", "RobustShunt", "design_robust_shunt"]
 
@@ -137,6 +138,26 @@ def _design_report(on: ShuntOnDraws, res_parts, risk, alpha, confidence, eff) ->
             "margin_ohm": _margin_summary(on.margin), "per_model": per_model, "source": on.source}
 
 
+def _safety(groups, nom_model, nom_theta, nom, on_rob, ohmmeter) -> dict:
+    """Each shunt's stability margin at the nominal point against the R0 uncertainty of the draws
+    (:mod:`bayes_emt.shunt.safety`)."""
+    R0 = float(nom_theta[nom_model.params.index("R0")])
+    pooled, medians = [], []
+    for g in groups:
+        if "R0" in g.model.params.names and g.n:
+            r = g.thetas[:, g.model.params.index("R0")]
+            pooled.append(r)
+            medians.append(float(np.median(r)))
+    sources = r0_uncertainty(R0=R0, draws=np.concatenate(pooled) if pooled else None,
+                             models=medians if len(medians) > 1 else None, ohmmeter=ohmmeter)
+    out = {"nominal": check_margin(nom.Rs, nom.Cs, nom.Rs_instability, R0, sources, what="the nominal shunt")}
+    if math.isfinite(on_rob.Rs) and math.isfinite(on_rob.Cs):
+        ev = evaluate_rc_shunt(nom_model, nom_theta, on_rob.Rs, on_rob.Cs)
+        out["robust"] = check_margin(on_rob.Rs, on_rob.Cs, ev.Rs_instability, R0, sources,
+                                     what="the robust shunt")
+    return out
+
+
 def _boundary(plants, groups, Cs_values, points, Rs_ref) -> dict:
     lo, hi = 0.7 * min(Cs_values), 1.4 * max(Cs_values)
     cs = np.geomspace(lo, hi, points)
@@ -154,7 +175,8 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
                         risk: RiskKind = "cvar", alpha: float = 0.9, epsilon: float = 1e-3,
                         confidence: float = 0.95, seed: int = 0, sampled: SampledShunt | None = None,
                         ess_fraction: float = 1.0, boundary_points: int = 0,
-                        notes: Sequence[str] = ()) -> RobustShunt:
+                        notes: Sequence[str] = (), ohmmeter_tolerance: float | None = None,
+                        progress=None) -> RobustShunt:
     """Shunt design under uncertainty (module docstring).
 
     Parameters
@@ -170,8 +192,22 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     ess_fraction : effective sample size per draw (≤ 1), scaling the draw counts of the interval.
     boundary_points : Cs grid points of the stability-boundary data for plots (0: none).
     notes : warnings from reading the draws, carried into the result.
+    ohmmeter_tolerance : [Ω] of a DC measurement of R0, compared with the stability margins too.
+    progress : optional ``callable(str)`` told when each stage starts (``shunt --posterior`` prints
+        these on stderr).
+
+    Both shunts carry ``stability_margin_ohm`` (``Rs −`` the instability threshold at the nominal
+    point) and the R0 uncertainty it is compared with (half the pooled draws' 90 % interval of R0,
+    the other models' median R0, the ohmmeter tolerance: :mod:`bayes_emt.shunt.safety`), in
+    ``report[name]`` and ``report["safety"][name]``; a margin below it adds a warning
+    ``[stability_margin_below_uncertainty] ...``.
     """
     t_start = time.perf_counter()
+
+    def stage(text):
+        if progress is not None:
+            progress(f"{text} ({time.perf_counter() - t_start:.1f} s)")
+
     if risk not in RISKS:
         raise ValueError(f"unknown risk measure {risk!r}; choose one of {', '.join(RISKS)}")
     if not 0.0 < alpha < 1.0:
@@ -192,6 +228,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
         nominal = (g.model, np.median(g.thetas, axis=0), f"posterior median of {g.label}")
     nom_model, nom_theta, nom_src = nominal
     t = time.perf_counter()
+    stage(f"nominal design ({nom_src}) and {sum(g.n for g in groups)} draws' plants")
     nom = design_rc_shunt(nom_model, np.asarray(nom_theta, float))
     plants = [BatchPlant(g.model, g.thetas, sampled=sampled) for g in groups]
     timing["prepare_s"] = time.perf_counter() - t
@@ -200,6 +237,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     opt_rs, opt_cs, opt_att, opt_fb, opt_margin, iters = [], [], [], [], [], 0
     nom_R0 = float(nom_theta[nom_model.params.index("R0")])
     for g, bp in zip(groups, plants, strict=True):
+        stage(f"each of the {g.n} {g.label} draws' own optimal shunt")
         if g.model == nom_model:
             start, r0 = (nom.Rs, nom.Cs), nom_R0
         else:
@@ -221,6 +259,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
         held[off[i] + h] = True
     design = ~held
     t = time.perf_counter()
+    stage("the nominal shunt on every draw; choosing the robust shunt on the design half")
     on_nom = _on_draws(plants, "nominal", nom.Rs, nom.Cs, f"design_rc_shunt at the {nom_src}")
     pool = DrawPool([(bp, d) for bp, (d, _) in zip(plants, halves, strict=True)])
     starts = [(nom.Rs, nom.Cs), (float(np.median(opt_rs[design])), float(np.median(opt_cs[design])))]
@@ -230,6 +269,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
                        f"P(unstable) <= {epsilon:g} per model")
     timing["robust_choice_s"] = time.perf_counter() - t
     t = time.perf_counter()
+    stage("report on the held-back half: intervals, exact stability checks, R0, sensitivities")
     parts = (held, group, labels, opt_att, design)
     rep_nom = _design_report(on_nom, parts, risk, alpha, confidence, ess_fraction)
     rep_rob = _design_report(on_rob, parts, risk, alpha, confidence, ess_fraction)
@@ -242,6 +282,13 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
                          f"{c['disagree']} of {c['checked']} draws checked near the boundary")
     r0 = describe_r0(groups, group, plants, on_nom, on_rob)
     warns.extend(r0.pop("warnings"))
+    safety = _safety(groups, nom_model, np.asarray(nom_theta, float), nom, on_rob, ohmmeter_tolerance)
+    for name, chk in safety.items():
+        rep = rep_nom if name == "nominal" else rep_rob
+        rep.update({"stability_margin_ohm": chk.stability_margin_ohm,
+                    "r0_uncertainty_ohm": chk.r0_uncertainty_ohm, "r0_uncertainty": dict(chk.r0_uncertainty)})
+        warns.extend(f"[{w['code']}] {name}: {w['message']}" for w in chk.warnings)
+        warns.extend(f"{name}: {n}" for n in chk.notes if "no R0 uncertainty" not in n)
     delta = max(float(np.diff(quantiles(opt_rs[design], [0.05, 0.95]))[0]) / 2, 1e-5)
     steep = {"delta_ohm": delta}
     for key, sign in (("loss_down_db", -1.0), ("loss_up_db", 1.0)):
@@ -274,6 +321,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
         warns.append(f"{int(opt_fb.sum())} of {opt_fb.size} per-draw optima came from design_rc_shunt "
                      "(the batched Newton did not settle on an equal-peak optimum there)")
     timing["total_s"] = time.perf_counter() - t_start
+    stage("done")
     report = {
         "nominal": rep_nom, "robust": rep_rob,
         "per_draw": {"Rs": summary(opt_rs), "Cs": summary(opt_cs), "attenuation_db": summary(opt_att),
@@ -286,6 +334,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
         "nominal_design": {"Rs": nom.Rs, "Cs": nom.Cs, "attenuation_db": nom.attenuation_db,
                            "model": nom_model.label, "source": nom_src},
         "robust_choice": choice.info, "why": why, "r0": r0, "sensitivity": sens,
+        "safety": {k: v.to_json_dict() for k, v in safety.items()},
         "implementation": None if sampled is None else sampled.to_json_dict(),
         "units": {"Rs": "ohm", "Cs": "F", "attenuation_db": "dB", "margin_ohm": "ohm", "R0": "ohm",
                   "regret_db": "dB (>= 0: worse than the draw's own optimum)", "risk_db": "dB"},

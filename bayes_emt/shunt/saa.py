@@ -33,8 +33,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize
 
-from .batch_peaks import rc_peaks_batch
-from .batch_plant import BatchPlant
+from .batch.peaks import rc_peaks_batch
+from .batch.plant import BatchPlant
 from .risk import RiskKind, cvar, risk_value
 
 __all__ = ["DrawPool", "PoolEval", "RobustChoice", "choose_robust"]

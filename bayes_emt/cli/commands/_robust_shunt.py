@@ -72,11 +72,8 @@ def _fmt_att(s, spec: str = ".3f") -> str:
 
 
 def run_posterior(args, sampled) -> int:
-    import numpy as np
-
     from ...io.paramfile import read_param_file, write_json
-    from ...shunt.draws import mixture_weights, sample_mixture
-    from ...shunt.robust import design_robust_shunt
+    from ...shunt.from_posterior import robust_shunt
     from ._common import print_table
 
     if args.evaluate_on or args.model:
@@ -97,32 +94,23 @@ def run_posterior(args, sampled) -> int:
     inputs += [("--params", args.params), ("--compare", args.compare)]
     check_outputs([("--json", args.json)], inputs, folders=[("--plot", args.plot, ())])
     posts = [_read(p) for p in args.posterior]
-    models = [p.model for p in posts]
-    labels = [m.label for m in models]
+    labels = [p.model.label for p in posts]
     if len(set(labels)) != len(labels):
         raise ValueError(f"each model may be given once: {', '.join(labels)}")
     lzs = (list(args.log_evidence) if args.log_evidence else
-           read_compare_file(args.compare, models) if args.compare else [None] * len(posts))
-    weights, note = mixture_weights(lzs)
-    notes = [note]
-    ess = 1.0
-    for path, p in zip(args.posterior, posts, strict=True):
-        if not p.converged:
-            notes.append(f"{path}: the posterior did not converge ({p.message}): its draws may not "
-                         "represent it")
-        n_kept = p.draws.shape[0] * p.draws.shape[1]
-        ess = min(ess, float(np.min(p.ess)) / n_kept)
-    groups, warns = sample_mixture([(p.model, p.theta(), path) for p, path in zip(posts, args.posterior,
-                                                                                  strict=True)],
-                                   weights, args.draws, seed=args.seed, log_evidences=lzs)
+           read_compare_file(args.compare, [p.model for p in posts]) if args.compare else None)
     nominal = None
     if args.params:
         m, th = read_param_file(args.params)
         nominal = (m, th, f"fit {args.params} ({m.label})")
-    res = design_robust_shunt(groups, nominal=nominal, risk=args.risk, alpha=args.alpha, epsilon=args.epsilon,
-                              confidence=args.confidence, seed=args.seed, sampled=sampled,
-                              ess_fraction=ess, boundary_points=24 if args.plot else 0, notes=notes + warns)
-    rep = res.to_json_dict()
+    result = robust_shunt(posts, weights="evidence" if lzs else "equal", log_z=lzs, n_draws=args.draws,
+                          seed=args.seed, risk=args.risk, alpha=args.alpha, epsilon=args.epsilon,
+                          confidence=args.confidence, nominal=nominal, sampled=sampled,
+                          ohmmeter_tolerance=getattr(args, "ohmmeter_tolerance", None),
+                          sources=list(args.posterior), boundary_points=24 if args.plot else 0,
+                          progress=not getattr(args, "quiet", False))
+    res = result.detail
+    rep = result.report
     mix = ", ".join(f"{g['label']} {100 * g['weight']:.3g} % ({g['n_draws']} draws)" for g in rep["models"])
     risk = f"CVaR_{args.alpha:g}" if args.risk == "cvar" else args.risk
     print(f"robust RC shunt over {rep['n_draws']} posterior draws [{mix}]: {risk} of the attenuation, "
@@ -149,6 +137,13 @@ def run_posterior(args, sampled) -> int:
     print(f"nominal: {rep['nominal']['source']}")
     print("why: " + rep["why"]["text"])
     print("R0: " + rep["r0"]["statement"])
+    for name in ("nominal", "robust"):
+        d = rep[name]
+        if d.get("stability_margin_ohm") is not None:
+            unc = d.get("r0_uncertainty_ohm")
+            print(f"stability margin ({name}, at the nominal point): {d['stability_margin_ohm']:.4g} ohm; R0 "
+                  "uncertainty " + ("none" if unc is None else f"{unc:.4g} ohm (" + ", ".join(
+                      f"{k} {v:.4g}" for k, v in d["r0_uncertainty"].items()) + ")"))
     for label, s in rep["sensitivity"].items():
         top = "; ".join(f"{k} <- {', '.join(v)}" for k, v in s["top"].items())
         print(f"drivers ({label}, Spearman): {top}")

@@ -80,6 +80,10 @@ def register(sub) -> None:
     p.add_argument("--plot", default=None, metavar="DIR",
                    help="write PNGs (receptance and attenuation map; with --posterior: gain bands, "
                         "distributions, stability boundary)")
+    p.add_argument("--ohmmeter-tolerance", type=finite_float, default=None, metavar="OHM",
+                   help="tolerance [ohm] of a DC resistance measurement of R0: the stability margin is "
+                        "compared with it too (besides the fit's standard error, the procedures' R0 and, "
+                        "with --evaluate-on or several --posterior, the other models' R0)")
     p.add_argument("--bandwidth", type=positive_float, default=None, metavar="RAD_S",
                    help="the shunt realisation's bandwidth [rad/s]: the stability constraint leaves out the "
                         "ideal loop above it (needed with a capacitance across the terminals); default: "
@@ -100,12 +104,14 @@ def run(args) -> int:
     from ...io.paramfile import read_param_file, write_json
     from ...shunt import design_rc_shunt, evaluate_rc_shunt
     from ...shunt.implementation import realise_rc_shunt
+    from ...shunt.safety import r0_uncertainty_of_files
+    from ._common import print_warnings
 
     rig = {k: getattr(args, k) for k in ("r_in", "k_in", "k_out", "fs")}
     if not args.implement and (any(v is not None for v in rig.values()) or args.delay is not None):
         raise ValueError("--r-in, --k-in, --k-out, --fs and --delay apply to --implement only")
     if args.posterior:
-        from ...shunt.batch_plant import SampledShunt
+        from ...shunt.batch.plant import SampledShunt
         from ._robust_shunt import run_posterior
 
         sampled = None
@@ -124,12 +130,14 @@ def run(args) -> int:
     check_model_matches(model, args.model, args.params)
     plots = [f"shunt_{model.spec}_{name}.png" for name in ("receptance", "attenuation_map")]
     check_outputs([("--json", args.json)], inputs, folders=[("--plot", args.plot, plots)])
-    d = design_rc_shunt(model, theta, bandwidth=args.bandwidth)
+    r0_unc = r0_uncertainty_of_files(args.params, others=[args.evaluate_on] if args.evaluate_on else (),
+                                     ohmmeter=args.ohmmeter_tolerance)
+    d = design_rc_shunt(model, theta, bandwidth=args.bandwidth, r0_uncertainty=r0_unc)
     out = d.to_json_dict()
     out["params"] = str(args.params)
     out["units"] = {"Rs": "ohm", "Cs": "F", "attenuation_db": "dB", "peak": "s^2 (mass-normalised m*G)",
                     "peak_omega": "rad/s", "Rs_instability": "ohm", "stability_margin": "ohm",
-                    "max_pole_real": "1/s"}
+                    "stability_margin_ohm": "ohm", "r0_uncertainty_ohm": "ohm", "max_pole_real": "1/s"}
     cf = d.closed_form
     print(f"model {model.label} ({args.params}): H-infinity optimal RC shunt ({d.optimum})")
     print(f"  Rs = {d.Rs:.5f} ohm, Cs = {d.Cs:.5g} F: attenuation {d.attenuation_db:.3f} dB "
@@ -140,6 +148,12 @@ def run(args) -> int:
           f"({cf['attenuation_db']:.3f} dB; coil at omega0: L = {cf['L_eq']:.4g} H, "
           f"R = {cf['R_eq']:.3g} ohm)")
     print("  " + _fmt_margin(d))
+    unc = ("none given" if d.r0_uncertainty_ohm is None else f"{d.r0_uncertainty_ohm:.4g} ohm ("
+           + ", ".join(f"{k} {v:.4g}" for k, v in d.r0_uncertainty.items()) + ")")
+    print(f"  stability margin {d.stability_margin_ohm:.4g} ohm; R0 uncertainty {unc}")
+    print_warnings(list(d.warnings))
+    for n in d.notes:
+        print(f"note: {n}")
     if args.evaluate_on:
         m2, th2 = read_param_file(args.evaluate_on)
         ev = evaluate_rc_shunt(m2, th2, d.Rs, d.Cs, bandwidth=args.bandwidth)

@@ -7,7 +7,7 @@ same per draw for 20 frequencies as for one, so shared grids beat per-draw loops
 
 1. **Coarse.** ``log|m·G|`` on a shared log grid (``Δ log ω = 0.012``) spanning every draw's
    window ``[0.8 ω_lo, 1.25 ω_hi]``, with ``ω_lo, ω_hi`` the extreme loop-reactance zeros near ω0
-   (:class:`~bayes_emt.shunt.batch_plant.Crossings`; the shunted peaks sit between them) or
+   (:class:`~bayes_emt.shunt.batch.plant.Crossings`; the shunted peaks sit between them) or
    ``ω0/2.5 .. 2.5 ω0``; the two largest local maxima per draw, plus the binding crossing
    frequency (where the lightly damped mode of a draw close to instability peaks).
 2. **Fine.** Each candidate is re-sampled at ``Δ/8`` on bands shared by the draws whose candidates
@@ -30,8 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .batch_plant import BatchPlant, Crossings
-from .receptance import Plant, rc_impedance, receptance
+from ..receptance import Plant, rc_impedance, receptance
+from .plant import BatchPlant, Crossings
 
 __all__ = ["PeakBatch", "rc_peaks_batch"]
 

@@ -8,7 +8,7 @@ is two equations in two unknowns,
     F1 = ln h_lo − ln h_hi = 0,    F2 = (g_lo × g_hi) / (|g_lo| |g_hi|) = 0,   g_lo · g_hi < 0,
 
 solved for all draws together by Newton's method: heights and gradients from
-:func:`~bayes_emt.shunt.batch_peaks.rc_peaks_batch` (envelope-theorem gradients), ``∂F1/∂x =
+:func:`~bayes_emt.shunt.batch.peaks.rc_peaks_batch` (envelope-theorem gradients), ``∂F1/∂x =
 g_lo − g_hi`` exactly and ``∂F2/∂x`` by forward differences (steps 1e-6 Ω and 1e-6 in ln Cs; an
 approximate Jacobian only slows Newton down, the solution is set by F). Draws start from a
 warm start (the nominal design, its Rs shifted by the draw's R0 offset so that ``R0 + Rs`` is kept)
@@ -26,9 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .batch_peaks import PeakBatch, rc_peaks_batch
-from .batch_plant import BatchPlant
-from .design import design_rc_shunt
+from ..design import design_rc_shunt
+from .peaks import PeakBatch, rc_peaks_batch
+from .plant import BatchPlant
 
 __all__ = ["DrawOptima", "design_draws"]
 

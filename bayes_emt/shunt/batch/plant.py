@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..models import Model
-from .receptance import open_peak
+from ...models import Model
+from ..receptance import open_peak
 
 __all__ = ["terminal_impedance", "SampledShunt", "Crossings", "BatchPlant"]
 
