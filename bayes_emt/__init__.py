@@ -16,6 +16,7 @@ from .api import (
     load_paper_bench,
     read,
     read_posterior,
+    robust_shunt,
     sample,
 )
 from .discovery.diagnose import Diagnosis
@@ -38,7 +39,7 @@ from .shunt import ShuntDesign
 __version__ = "0.1.0"
 
 __all__ = [
-    "read", "fit", "sample", "compare", "design_shunt", "diagnose", "read_posterior", "load",
+    "read", "fit", "sample", "compare", "robust_shunt", "design_shunt", "diagnose", "read_posterior", "load",
     "as_model", "as_measurement", "load_paper_bench", "load_concealed_bench",
     "Measurement", "FitResult", "Posterior", "Comparison", "Diagnosis", "ShuntDesign",
     "BayesEMTError", "ConvergenceWarning", "DataFormatError", "FitError", "IdentifiabilityWarning",

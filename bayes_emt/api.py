@@ -36,10 +36,12 @@ from .io import read_measurement
 from .io.datasets import load_concealed_bench, load_paper_bench
 from .measurement import Measurement
 from .models import Model, build_model
-from .shunt import ShuntDesign, design_rc_shunt
+from .shunt import RobustShuntResult, ShuntDesign, design_rc_shunt, read_robust_shunt
+from .shunt import robust_shunt as _robust_shunt
+from .shunt.design import read_shunt_design
 
-__all__ = ["read", "fit", "sample", "compare", "design_shunt", "diagnose", "read_posterior", "load",
-           "as_model", "as_measurement", "load_paper_bench", "load_concealed_bench"]
+__all__ = ["read", "fit", "sample", "compare", "robust_shunt", "design_shunt", "diagnose", "read_posterior",
+           "load", "as_model", "as_measurement", "load_paper_bench", "load_concealed_bench"]
 
 
 def as_model(model: Model | str | FitResult, *, rings: int | None = None) -> Model:
@@ -139,6 +141,31 @@ def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *
                      time_budget=time_budget, progress=progress)
 
 
+def robust_shunt(posteriors: Posterior | Sequence[Posterior], *, weights: str | Sequence[float] = "evidence",
+                 comparison: Comparison | None = None, nominal: FitResult | None = None,
+                 n_draws: int = 1000, seed: int = 0, **options) -> RobustShuntResult:
+    """The nominal and the robust RC shunt over the draws of one posterior or a mixture of several
+    (one per model): every draw's own optimal Rs [Ω], Cs [F] and attenuation [dB], the robust
+    shunt's CVaR of the attenuation with P(unstable) ≤ ``epsilon`` (chosen on half the draws,
+    reported on the other half), both shunts' stability margins against R0's uncertainty
+    (:func:`~bayes_emt.shunt.robust_shunt` for ``options``). ``weights="evidence"`` weighs the
+    models by the log Z of ``comparison`` (a :func:`compare` result); ``nominal`` the fit the
+    nominal shunt is designed on (default: the heaviest posterior's median)."""
+    posts = list(posteriors) if isinstance(posteriors, list | tuple) else [posteriors]
+    log_z = None
+    if comparison is not None:
+        log_z = {m.label: m.log_evidence for m in comparison.models}
+        missing = [p.model.label for p in posts if p.model.label not in log_z]
+        if missing:
+            raise ValueError(f"robust_shunt: the comparison has no log Z for {', '.join(missing)} "
+                             f"(it has {', '.join(log_z)})")
+    elif weights == "evidence" and len(posts) > 1:
+        raise ValueError('robust_shunt: weights="evidence" over several posteriors needs their log Z: '
+                         'give comparison=be.compare(...), or weights="equal" or a list of numbers')
+    return _robust_shunt(posts, weights=weights, log_z=log_z, nominal=nominal, n_draws=n_draws, seed=seed,
+                         **options)
+
+
 def design_shunt(fit_or_model: FitResult | Model, theta=None, **options) -> ShuntDesign:
     """The H∞-optimal RC shunt (:func:`~bayes_emt.shunt.design_rc_shunt`) for a fit, or for a model
     and its parameter vector."""
@@ -161,8 +188,20 @@ def read_posterior(path: str | Path):
 
 def load(path: str | Path):
     """Any saved result: a posterior (netCDF) or a JSON record written by a result's ``.save()`` or
-    a command's ``--json`` (a fit, a comparison, a diagnosis, a shunt design), by its ``kind``."""
+    a command's ``--json`` (a fit, a comparison, a diagnosis, a shunt design, a robust shunt), by
+    its ``kind`` or, for the shunts' records, by their fields."""
+    import json
+
     p = Path(path)
     if p.suffix.lower() in (".nc", ".nc4", ".netcdf"):
         return read_posterior(p)
+    try:
+        rec = json.loads(p.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return read_record(p)  # its one-line error names the file
+    if isinstance(rec, dict) and "kind" not in rec:
+        if {"nominal", "robust"} <= set(rec):
+            return read_robust_shunt(p)
+        if {"Rs", "Cs"} <= set(rec):
+            return read_shunt_design(p)
     return read_record(p)

@@ -416,12 +416,12 @@ def _robust(d: _Demo, post, fit, cfg) -> None:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            res = be.robust_shunt(post, nominal=fit, n_draws=cfg["draws"], seed=d.args.seed)
+            res = be.robust_shunt(post, nominal=fit, n_draws=cfg["draws"], seed=d.args.seed, boundary_points=24)
         res.save(d.out / "robust_shunt.json")
         for name, plot in (("shunt_robust_gain.png", plot_gain_bands),
                            ("shunt_robust_distributions.png", plot_attenuation_distributions),
                            ("shunt_robust_boundary.png", plot_stability_boundary)):
-            save_figure(plot(res), d.out / name, dpi=100)
+            save_figure(plot(res.detail), d.out / name, dpi=100)
     except Exception as exc:  # noqa: BLE001 - a feature step that fails must not lose the rest of the run
         d.failed("robust_shunt", exc, t)
         return
