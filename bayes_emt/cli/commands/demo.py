@@ -416,7 +416,8 @@ def _robust(d: _Demo, post, fit, cfg) -> None:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            res = be.robust_shunt(post, nominal=fit, n_draws=cfg["draws"], seed=d.args.seed, boundary_points=24)
+            res = be.robust_shunt(post, nominal=fit, n_draws=cfg["draws"], seed=d.args.seed,
+                                  boundary_points=24)
         res.save(d.out / "robust_shunt.json")
         for name, plot in (("shunt_robust_gain.png", plot_gain_bands),
                            ("shunt_robust_distributions.png", plot_attenuation_distributions),
