@@ -161,3 +161,21 @@ def test_the_term_name_check_finds_what_it_looks_for(tmp_path):
     ids, aug, _ = _registered_names()
     hits = [(line, text) for line, text in _string_literals(bad) if text in ids | aug]
     assert hits == [(2, "eddy_current"), (2, "winding_capacitance"), (5, "Cp"), (5, "lr2")]
+
+
+def test_command_modules_hold_no_numerical_logic():
+    # issue 21: the command line is a thin skin over the verbs (parse, call, print, write); a module
+    # of cli/ that needs numpy or scipy is computing something a user could not script
+    import ast
+
+    import bayes_emt
+
+    root = Path(bayes_emt.__file__).parent / "cli"
+    offenders = []
+    for f in sorted(root.rglob("*.py")):
+        for node in ast.walk(ast.parse(f.read_text())):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            offenders += [f"{f.relative_to(root)}: {n}" for n in names
+                          if n.split(".")[0] in ("numpy", "scipy")]
+    assert offenders == []

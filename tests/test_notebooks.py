@@ -58,7 +58,8 @@ def test_notebook_runs(name, monkeypatch):
     if name == "quickstart":
         assert "ohm" in text and "rad/s" in text and "Hz" in text and "NOT converged" in text
     if name == "evidence_and_robust_shunt":
-        assert "preferred: NL" in text and "nats" in text and "robust RC shunt over 1000 posterior draws" in text and "P(unstable)" in text
+        assert "preferred: NL" in text and "nats" in text and "P(unstable)" in text
+        assert "robust RC shunt over 1000 posterior draws" in text
     if name == "discrepancy_discovery":
         assert "finding: second_resonance" in text and "NL(5)+second_resonance" in text
     if name == "real_loudspeaker_added_mass":

@@ -7,7 +7,8 @@ and under which units), then prints the point count, the frequency range in Hz a
 
 from __future__ import annotations
 
-import numpy as np
+import math
+
 
 from ._common import add_data_args, add_output_args, add_parser, detail, note
 
@@ -47,12 +48,12 @@ def run(args) -> int:
     print(f"points      {meas.n_points}")
     print(f"frequency   {meas.f_hz[0]:.5g} .. {meas.f_hz[-1]:.5g} Hz  "
           f"({meas.omega[0]:.5g} .. {meas.omega[-1]:.5g} rad/s)")
-    absz = np.abs(meas.Z)
+    absz = abs(meas.Z)
     print(f"|Z|         {absz.min():.5g} .. {absz.max():.5g} ohm")
     res = locate_resonance(meas)
     if res is None:
         print("resonance   none found in this band (zeta, omega0, phi not identifiable)")
     else:
-        print(f"resonance   {res.omega / (2 * np.pi):.5g} Hz ({res.omega:.5g} rad/s), "
+        print(f"resonance   {res.omega / (2 * math.pi):.5g} Hz ({res.omega:.5g} rad/s), "
               f"|Z| = {absz[res.index]:.5g} ohm")
     return 0
