@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 
-
 from ._common import add_data_args, add_output_args, add_parser, detail, note
 
 EXAMPLES = """\
