@@ -27,7 +27,13 @@ from scipy import stats
 
 from ..errors import FitError
 from ..estimation.results import FitResult
-from ..inference.likelihood import Likelihood, SamplingSpaceDensity, _sha256, measurement_sha256, noise_param_set
+from ..inference.likelihood import (
+    Likelihood,
+    SamplingSpaceDensity,
+    _sha256,
+    measurement_sha256,
+    noise_param_set,
+)
 from ..measurement import Measurement
 from ..models import Model
 from ..params import ParamSet, default_spec
@@ -253,7 +259,7 @@ class MultiMassLikelihood(SamplingSpaceDensity):
                 for i, th in enumerate(self.joint.thetas(x[..., :p]))]
 
     def __call__(self, x) -> np.ndarray:
-        return sum(np.sum(lik.pointwise(th), axis=-1) for lik, th in zip(self.liks, self.run_thetas(x), strict=True))
+        return sum(lik(th) for lik, th in zip(self.liks, self.run_thetas(x), strict=True))
 
 
 def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: Model, *,

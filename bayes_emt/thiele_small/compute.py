@@ -139,8 +139,8 @@ def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
 
 
 def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
-    """``(ts arrays, rms)`` of one model: ``mode`` ``"point"`` (least squares), ``"laplace"`` or
-    ``"posterior"``."""
+    """``(ts arrays, ts at the least-squares point, rms)`` of one model: ``mode`` ``"point"``
+    (least squares only; the arrays are then that point), ``"laplace"`` or ``"posterior"``."""
     from ..added_mass.multi import MultiMassModel, fit_multi_mass, sample_multi_mass
     from ..estimation.fitting import fit_admittance
     from ..inference.sampling import sample_posterior
@@ -152,8 +152,9 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         fit = fit_admittance(meas, model, re=inp.re)
         warns.extend({"code": w["code"], "message": w["message"], "model": model.label, "run": label}
                      for w in fit.warnings)
+        point = fit.theta[None, :]
         if mode == "point":
-            theta = fit.theta[None, :]
+            theta = point
         elif mode == "laplace":
             if fit.cov_z is None:
                 raise DataFormatError(f"{meas.source}: the fit of {model.label} has no covariance (singular "
@@ -166,11 +167,12 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                 warns.append({"code": "not_converged", "model": model.label, "run": label,
                               "message": f"the {label} posterior did not meet the stopping rule: {post.message}"})
             theta = post.theta()
-        return fit.model, theta, fit.rms_rel_residual
+        return fit.model, theta, point, fit.rms_rel_residual
 
     if method == "free_air":
-        bound, theta, rms = single(inp.meas, "free air")
-        return _complete(free_air(bound, theta), bound, theta, inp), rms
+        bound, theta, point, rms = single(inp.meas, "free air")
+        return (_complete(free_air(bound, theta), bound, theta, inp),
+                _complete(free_air(bound, point), bound, point, inp), rms)
     if method == "added_mass":
         runs = [inp.meas] + [m for m, _ in inp.loaded]
         deltas = [d for _, d in inp.loaded]
@@ -194,17 +196,26 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             if not info["converged"]:
                 warns.append({"code": "not_converged", "model": model.label,
                               "message": f"the joint posterior did not meet the stopping rule: {info['message']}"})
-        theta = jm.thetas(x)[0]
-        ts = _complete(free_air(model, theta), model, theta, inp, mms=x[:, 0])
-        return ts, float(np.sqrt(np.mean(np.square(mfit.rms_rel_residual))))
+        out = []
+        for xx in (x, mfit.theta[None, :]):
+            theta = jm.thetas(xx)[0]
+            out.append(_complete(free_air(model, theta), model, theta, inp, mms=xx[:, 0]))
+        return out[0], out[1], float(np.sqrt(np.mean(np.square(mfit.rms_rel_residual))))
     # added volume
-    bound, theta, rms_b = single(inp.meas, "free air")
+    bound, theta, point, rms_b = single(inp.meas, "free air")
     box_meas, vb = inp.box
-    bbound, theta_c, rms_c = single(box_meas, "box")
+    bbound, theta_c, point_c, rms_c = single(box_meas, "box")
     n = min(len(theta), len(theta_c))
     if mode != "point":
         theta = theta[rng.permutation(len(theta))[:n]]
         theta_c = theta_c[rng.permutation(len(theta_c))[:n]]
+    rms = float(np.sqrt((rms_b**2 + rms_c**2) / 2))
+    return (_volume(bound, bbound, theta, theta_c, vb, inp, warns, model),
+            _volume(bound, bbound, point, point_c, vb, inp, [], model), rms)
+
+
+def _volume(bound, bbound, theta, theta_c, vb, inp, warns, model):
+    """T/S of the added-volume method from paired free-air and box draws."""
     ts = free_air(bound, theta)
     tc = free_air(bbound, theta_c)
     vas = vb * (tc["fs"] * tc["Qes"] / (ts["fs"] * ts["Qes"]) - 1.0)
@@ -218,7 +229,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         ts = with_sd(with_mass(ts, bound, theta, mms), inp.sd, inp.rho, inp.c)
     else:
         ts = {**ts, "Vas": vas}
-    return ts, float(np.sqrt((rms_b**2 + rms_c**2) / 2))
+    return ts
 
 
 def _spread_models(main: Model, models_for_spread) -> list[Model]:
@@ -301,14 +312,13 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                   settings if settings is not None else _ts_sampler())
     warns: list[dict] = []
     mode = "laplace" if fast else "posterior"
-    draws, rms_main = _estimate(main, method, inp, mode, warns)
-    point_main, _ = _estimate(main, method, inp, "point", [])
+    draws, point_main, rms_main = _estimate(main, method, inp, mode, warns)
 
     # model spread: point values of every adequate candidate (and the main model)
     spread_vals = [(main.label, rms_main, point_main)]
     for cand in _spread_models(main, models_for_spread):
         try:
-            pv, rms = _estimate(cand, method, inp, "point", [])
+            _, pv, rms = _estimate(cand, method, inp, "point", [])
         except Exception as exc:  # noqa: BLE001 - a candidate that cannot be fitted is reported, not fatal
             warns.append({"code": "spread_model_failed", "model": cand.label,
                           "message": f"candidate {cand.label} for the model spread could not be fitted: {exc}"})
