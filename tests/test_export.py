@@ -63,7 +63,8 @@ def test_driver_files_parse_back(tmp_path):
     ts = thiele_small(sim.free, "I+semi_inductance", loaded=list(sim.loaded), sd=sim.sd, fast=True,
                       models_for_spread=[])
     wdr = read_wdr(write_wdr(tmp_path / "d.wdr", ts))
-    for key, name in (("Fs", "fs"), ("Qts", "Qts"), ("Vas", "Vas"), ("BL", "Bl"), ("Re", "Re"), ("Mms", "Mms")):
+    pairs = (("Fs", "fs"), ("Qts", "Qts"), ("Vas", "Vas"), ("BL", "Bl"), ("Re", "Re"), ("Mms", "Mms"))
+    for key, name in pairs:
         assert wdr[key] == pytest.approx(ts[name], rel=1e-9)
     assert wdr["Sd"] == pytest.approx(sim.sd, rel=1e-9)
     hr = read_hornresp(write_hornresp(tmp_path / "hr.txt", ts))

@@ -142,7 +142,8 @@ def test_re_penalty_combines_meter_and_data_as_gaussians():
         pen = fit_admittance(sim.free, model, re=(meter, sd))
         w = (1 / sd_d**2) / (1 / sd_d**2 + 1 / sd**2)
         expect = w * r0 + (1 - w) * meter
-        assert abs(pen.parameters["R0"] - expect) <= 0.1 * abs(expect - r0), (sd, pen.parameters["R0"], expect)
+        got = pen.parameters["R0"]
+        assert abs(got - expect) <= 0.1 * abs(expect - r0), (sd, got, expect)
         assert pen.info["re"]["value"] == meter
     assert abs(pen.parameters["R0"] - meter) <= sd  # the tight reading wins: within its sd
 

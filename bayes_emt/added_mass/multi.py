@@ -183,7 +183,8 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
 
     def batch(z):
         x = jm.params.from_z(z)
-        parts = [_rel_residuals(model, meas, th) / s for meas, th, s in zip(runs, jm.thetas(x), noise, strict=True)]
+        parts = [_rel_residuals(model, meas, th) / s
+                 for meas, th, s in zip(runs, jm.thetas(x), noise, strict=True)]
         if re is not None and i_r0 is not None:
             parts.append(((x[..., i_r0] - re[0]) / re[1])[..., None])
         out = np.concatenate(parts, axis=-1)
@@ -200,7 +201,8 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
     cov = covariance_z(central_jacobian(batch, sol.x), r, p)
     x = jm.params.from_z(sol.x)
     se = np.full(p, np.nan) if cov is None else np.sqrt(np.clip(np.diag(cov), 0, None))
-    se = np.array([abs(v) * s if spec.transform == "log" else s for spec, v, s in zip(jm.params, x, se, strict=True)])
+    se = np.array([abs(v) * s if spec.transform == "log" else s
+                   for spec, v, s in zip(jm.params, x, se, strict=True)])
     thetas = jm.thetas(x)
     chi2_joint = float(r @ r)
     chi2_s = sum(c / s**2 for c, s in zip(chi2_sep, noise, strict=True))

@@ -159,13 +159,15 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             if fit.cov_z is None:
                 raise DataFormatError(f"{meas.source}: the fit of {model.label} has no covariance (singular "
                                       "Jacobian): fast intervals are not available; drop fast")
-            theta = _laplace(fit.model.params, fit.model.params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS, rng)
+            params = fit.model.params
+            theta = _laplace(params, params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS, rng)
         else:
             post = sample_posterior(meas, prior_model, fit=fit, seed=inp.seed, settings=inp.settings,
                                     progress=False)
             if not post.converged:
                 warns.append({"code": "not_converged", "model": model.label, "run": label,
-                              "message": f"the {label} posterior did not meet the stopping rule: {post.message}"})
+                              "message": f"the {label} posterior did not meet the stopping rule: "
+                                         f"{post.message}"})
             theta = post.theta()
         return fit.model, theta, point, fit.rms_rel_residual
 
@@ -195,7 +197,8 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             x, info = sample_multi_mass(runs, deltas, pm, fit=mfit, seed=inp.seed, settings=inp.settings)
             if not info["converged"]:
                 warns.append({"code": "not_converged", "model": model.label,
-                              "message": f"the joint posterior did not meet the stopping rule: {info['message']}"})
+                              "message": "the joint posterior did not meet the stopping rule: "
+                                         f"{info['message']}"})
         out = []
         for xx in (x, mfit.theta[None, :]):
             theta = jm.thetas(xx)[0]
@@ -321,7 +324,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             _, pv, rms = _estimate(cand, method, inp, "point", [])
         except Exception as exc:  # noqa: BLE001 - a candidate that cannot be fitted is reported, not fatal
             warns.append({"code": "spread_model_failed", "model": cand.label,
-                          "message": f"candidate {cand.label} for the model spread could not be fitted: {exc}"})
+                          "message": f"candidate {cand.label} for the model spread could not be "
+                                     f"fitted: {exc}"})
             continue
         spread_vals.append((cand.label, rms, pv))
     best = min(r for _, r, _ in spread_vals)
@@ -346,7 +350,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                       "they can be too narrow where the posterior is skewed or the fit is poor"})
     if "lambda_creep" in main.names:
         warns.append({"code": "creep_convention", "message": "suspension creep: fs is where the mechanical "
-                      "reactance vanishes and Qms includes the creep loss at fs (Knudsen & Jensen LOG model, as "
+                      "reactance vanishes and Qms includes the creep loss at fs (Knudsen & Jensen LOG "
+                      "model, as "
                       "Klippel LPM and Speakerbench report them); zeta and omega0 stay model parameters; "
                       "Qms_viscous is the viscous part alone"})
     inputs = {"data": meas.source, "f_range_hz": [float(meas.f_hz[0]), float(meas.f_hz[-1])],
@@ -357,7 +362,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
               "uncertainty": "laplace" if fast else "posterior", "seed": int(seed),
               "model_spread": {"candidates": [lab for lab, _, _ in spread_vals],
                                "adequate": [lab for lab, _ in adequate],
-                               "rule": f"rms relative residual within {ADEQUATE_RMS_FACTOR}x the best candidate's",
+                               "rule": f"rms relative residual within {ADEQUATE_RMS_FACTOR}x the best "
+                                       "candidate's",
                                "weighting": "unweighted range (no evidence computed)"}}
     return ThieleSmall(model=main.spec, method=method, parameters=params, inputs=inputs,
                        warnings=tuple(_dedupe(warns)))

@@ -134,7 +134,8 @@ def with_mass(ts: dict[str, np.ndarray], model: Model, theta, mms) -> dict[str, 
 
 
 def with_sd(ts: dict[str, np.ndarray], sd: float, rho: float, c: float) -> dict[str, np.ndarray]:
-    """Add Vas, η0 and SPL at 2.83 V / 1 m from Sd [m²] and Cms (air density ρ [kg/m³], sound speed c [m/s])."""
+    """Add Vas, η0 and SPL at 2.83 V / 1 m from Sd [m²] and Cms (air density ρ [kg/m³], sound
+    speed c [m/s])."""
     vas = rho * c * c * sd * sd * ts["Cms"]
     eta0 = 4 * math.pi**2 / c**3 * ts["fs"] ** 3 * vas / ts["Qes"]
     power = V_2_83**2 / ts["Re"]

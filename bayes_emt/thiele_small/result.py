@@ -96,8 +96,10 @@ class ThieleSmall:
     def _repr_html_(self) -> str:
         cells = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>"
                         for r in self.rows())
-        warn = "".join(f"<li>{html.escape(w['code'])}: {html.escape(w['message'])}</li>" for w in self.warnings)
-        return (f"<p>Thiele–Small parameters ({html.escape(self.method)}, model {html.escape(self.model)})</p>"
+        warn = "".join(f"<li>{html.escape(w['code'])}: {html.escape(w['message'])}</li>"
+                       for w in self.warnings)
+        return (f"<p>Thiele–Small parameters ({html.escape(self.method)}, "
+                f"model {html.escape(self.model)})</p>"
                 "<table><tr><th>parameter</th><th>value</th><th>90 % interval</th><th>model spread</th>"
                 f"<th>unit</th></tr>{cells}</table>" + (f"<ul>{warn}</ul>" if warn else ""))
 

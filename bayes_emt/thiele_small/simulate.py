@@ -52,13 +52,15 @@ def simulate_driver(spec: str = "I+semi_inductance", *, driver: dict | None = No
     def record(theta, label):
         Z = 1.0 / model.admittance(omega, theta)
         e = (rng.standard_normal(Z.size) + 1j * rng.standard_normal(Z.size)) * noise / math.sqrt(2)
-        return Measurement.from_impedance(omega, Z * (1 + e), meta={"source": f"simulated {label} (seed {seed})"})
+        return Measurement.from_impedance(omega, Z * (1 + e),
+                                          meta={"source": f"simulated {label} (seed {seed})"})
 
     jm = MultiMassModel(model, tuple(deltas) if deltas else (1.0,))
     x = np.array([phys[n] if n in phys else d[n] for n in jm.names])
     thetas = jm.thetas(x)
     free = record(thetas[0], "free air")
-    loaded = tuple((record(th, f"+{dm * 1e3:g} g"), float(dm)) for th, dm in zip(thetas[1:], deltas, strict=False))
+    loaded = tuple((record(th, f"+{dm * 1e3:g} g"), float(dm))
+                   for th, dm in zip(thetas[1:], deltas, strict=False))
     th0 = thetas[0][None, :]
     truth = free_air(model, th0)
     truth = with_sd(with_mass(truth, model, th0, m), sd, rho, c)

@@ -177,7 +177,8 @@ def re_reading(text: str) -> tuple[float, float]:
         v = float(value)
         s = float(sd) if sd else 0.01 * v
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected OHM or OHM:SD (e.g. 5.72 or 5.72:0.02), got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected OHM or OHM:SD (e.g. 5.72 or 5.72:0.02), "
+                                         f"got {text!r}") from None
     if not (math.isfinite(v) and v > 0 and math.isfinite(s) and s > 0):
         raise argparse.ArgumentTypeError(f"OHM and SD must be positive numbers, got {text!r}")
     return v, s
@@ -191,37 +192,16 @@ def add_re_option(p: argparse.ArgumentParser) -> None:
                         "(default 1 %%): a Normal prior on R0 for posteriors, a penalty for least squares")
 
 
-def _band_hz(w: dict) -> str:
-    band = w.get("band_hz")
-    if not band:
-        rad = w.get("band_rad_s")
-        band = None if not rad else [b / (2 * math.pi) for b in rad]
-    return "" if not band else f" {band[0]:.3g}-{band[1]:.3g} Hz"
-
-
-def _short(message: str, width: int = 80) -> str:
-    """The first sentence of a warning message, at most ``width`` characters."""
-    first = message.split(". ")[0].split("; ")[0].split(": ", 1)[-1] if ": " in message[:40] else \
-        message.split(". ")[0].split("; ")[0]
-    first = " ".join(first.split())
-    return first if len(first) <= width else first[: width - 1].rstrip() + "…"
-
-
 def warning_lines(records, *, model: str | None = None) -> list[str]:
-    """One terminal line per distinct warning: ``[code] band: short hint (models)``; records with the
-    same code and band are merged (their models listed once). The full text stays in the JSON."""
-    merged: dict[tuple, dict] = {}
-    for w in records:
-        key = (w["code"], _band_hz(w))
-        models = list(w.get("models") or ([w["model"]] if w.get("model") else ([model] if model else [])))
-        if key in merged:
-            merged[key]["models"] += [m for m in models if m not in merged[key]["models"]]
-            continue
-        merged[key] = {"short": w.get("short") or _short(str(w["message"])), "models": models}
+    """One terminal line per distinct warning: ``warning [code] band: short hint (models)``; records
+    with the same code and band are merged (:func:`bayes_emt._warnlines.group_warnings`). The full
+    text stays in the JSON and the report."""
+    from ..._warnlines import group_warnings
+
     out = []
-    for (code, band), rec in merged.items():
-        who = f" ({', '.join(rec['models'])})" if rec["models"] else ""
-        out.append(f"warning [{code}]{band}: {rec['short']}{who}")
+    for g in group_warnings(records, default_source=model):
+        who = f" ({', '.join(g['sources'])})" if g["sources"] else ""
+        out.append(f"warning [{g['code']}]{g['band']}: {g['short']}{who}")
     return out
 
 

@@ -67,7 +67,8 @@ def run(args) -> int:
     if (args.zma or args.frd) and is_ts:
         raise ValueError(f"{args.source} is a T/S record: --zma/--frd need a fit or parameter JSON")
     if (args.wdr or args.hornresp) and not is_ts:
-        raise ValueError(f"{args.source} is not a T/S record (bayes-emt ts --json): --wdr/--hornresp need one")
+        raise ValueError(f"{args.source} is not a T/S record (bayes-emt ts --json): "
+                         "--wdr/--hornresp need one")
     if args.zma or args.frd:
         from ...io import read_measurement
         from ...io.paramfile import read_param_file
@@ -78,7 +79,7 @@ def run(args) -> int:
         f_hz = read_measurement(args.data).f_hz if args.data else _grid(args.grid)
         Z = model.impedance(2 * math.pi * f_hz, theta)
         comment = f"bayes_emt: model {model.spec} fitted impedance ({args.source})"
-        for opt, path, fn in (("--zma", args.zma, write_zma), ("--frd", args.frd, write_frd)):
+        for path, fn in ((args.zma, write_zma), (args.frd, write_frd)):
             if path:
                 fn(path, f_hz, Z, comment=comment)
                 note(args, f"wrote {path} ({f_hz.size} points, {f_hz[0]:.4g}..{f_hz[-1]:.4g} Hz)")

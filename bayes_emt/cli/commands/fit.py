@@ -24,7 +24,7 @@ from ._common import (
     model_from_args,
     note,
     print_table,
-    print_warnings,
+    print_warning_lines,
 )
 
 EXAMPLES = """\
@@ -50,7 +50,8 @@ def register(sub) -> None:
     p.add_argument("--priors", default=None, metavar="FILE",
                    help="TOML/JSON prior overrides as for sample: their supports bound the fit; a normal "
                         "(or lognormal) prior on R0 acts as --re")
-    p.add_argument("--ts", action="store_true", help="also print the Thiele-Small free-air set (fast intervals)")
+    p.add_argument("--ts", action="store_true",
+                   help="also print the Thiele-Small free-air set (fast intervals)")
     add_output_args(p)
     p.set_defaults(func=run)
 
@@ -95,7 +96,7 @@ def run(args) -> int:
         print(f"note: the optimiser did not converge ({fit.message})")
     if fit.cov_z is None:
         print("note: the Jacobian is rank-deficient; no standard errors")
-    print_warnings(fit.warnings)
+    print_warning_lines(fit.warnings, model=model.label)
     diff = r0["polished"] - r0["paper"]
     print(f"by procedure: R0 polished {r0['polished']:.5g} ohm, paper's two steps {r0['paper']:.5g} ohm "
           f"(difference {diff:+.4g} ohm, {100 * diff / r0['paper']:+.2g} %)")

@@ -44,7 +44,8 @@ def register(sub) -> None:
     p.add_argument("--box", default=None, metavar="FILE", help="a recording in a sealed test box")
     p.add_argument("--box-volume", type=positive_float, default=None, metavar="M3",
                    help="the test box's net volume [m^3]")
-    p.add_argument("--sd", type=positive_float, default=None, metavar="M2", help="effective cone area Sd [m^2]")
+    p.add_argument("--sd", type=positive_float, default=None, metavar="M2",
+                   help="effective cone area Sd [m^2]")
     add_re_option(p)
     g = p.add_mutually_exclusive_group()
     g.add_argument("--mms", type=positive_float, default=None, metavar="KG", help="known moving mass [kg]")
