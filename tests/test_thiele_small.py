@@ -175,3 +175,18 @@ def test_ls10_44_pair_gives_the_full_set_fast():
                      fast=True, f_range_hz=(10.0, 1000.0), read_options=opts, models_for_spread=[])
     assert {"fs", "Re", "Qts", "Bl", "Mms", "Cms", "Vas", "SPL"} <= set(r.parameters)
     assert 38.0 < r["fs"] < 46.0  # the impedance peak of the free-air file is at about 42 Hz
+
+
+def test_from_posterior_free_air_set():
+    """The T/S set of a (short) posterior: the free-air names, intervals ordered, unconverged said."""
+    from bayes_emt.inference.sampling import sample_posterior
+    from bayes_emt.thiele_small import from_posterior
+
+    sim = simulate_driver("I", deltas=(), seed=10, n_points=200)
+    post = sample_posterior(sim.free, parse_model_spec("I"), seed=0, max_steps=200, progress=False)
+    ts = from_posterior(post)
+    assert set(ts.parameters) == {"fs", "Re", "Le", "Qms", "Qes", "Qts", "EBP"}
+    for p in ts.parameters.values():
+        assert p["ci90"][0] <= p["value"] <= p["ci90"][1]
+    assert abs(ts["fs"] - sim.truth["fs"]) < 0.05 * sim.truth["fs"]
+    assert post.converged or any(w["code"] == "not_converged" for w in ts.warnings)

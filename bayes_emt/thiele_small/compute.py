@@ -382,3 +382,34 @@ def _dedupe(warns: list[dict]) -> list[dict]:
         rec["models"] = [w["model"]] if w.get("model") else []
         out[key] = rec
     return list(out.values())
+
+
+def from_posterior(post, *, sd: float | None = None, air_density: float = 1.18,
+                   sound_speed: float = 343.0) -> ThieleSmall:
+    """The T/S set of an existing posterior (``sample``'s): a single recording gives the free-air set;
+    an added-mass pair (:class:`~bayes_emt.added_mass.posterior.AddedMassPosterior`) also Bl, Mms,
+    Cms, Kms, Rms and, with ``sd``, Vas, η0 and SPL. No model spread (one model)."""
+    model = post.model
+    theta = post.theta()
+    if hasattr(post, "thetas"):  # added-mass pair: m is the first joint parameter
+        mms = post.flat()[:, 0]
+        ts = with_mass(free_air(model, theta), model, theta, mms)
+        method = "added_mass"
+    else:
+        ts, method = free_air(model, theta), "free_air"
+    if sd is not None and "Cms" in ts:
+        ts = with_sd(ts, sd, air_density, sound_speed)
+    params = {}
+    for name in NAMES:
+        if name in ts:
+            v = np.asarray(ts[name], float)
+            v = v[np.isfinite(v)]
+            if v.size:
+                lo, med, hi = np.quantile(v, [0.05, 0.5, 0.95])
+                params[name] = {"value": float(med), "ci90": [float(lo), float(hi)], "unit": UNITS[name],
+                                "model_spread": None}
+    warns = [] if post.converged else [{"code": "not_converged", "message": "the posterior did not meet the "
+                                        "stopping rule: its T/S intervals are not to be trusted"}]
+    return ThieleSmall(model=model.spec, method=method, parameters=params,
+                       inputs={"uncertainty": "posterior", "sd_m2": sd, "air_density_kg_m3": air_density,
+                               "sound_speed_m_s": sound_speed}, warnings=tuple(warns))

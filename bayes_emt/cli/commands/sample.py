@@ -189,6 +189,10 @@ def run(args) -> int:
         q = np.quantile(vals, [0.5, 0.05, 0.95])
         rows.append((f"{name} (derived)", f"{q[0]:.5g}", f"{q[1]:.5g}", f"{q[2]:.5g}", "", "", units[name]))
     print_table(rows, ("parameter", "median", "5 %", "95 %", "ESS", "tau", "unit"))
+    from ...thiele_small import from_posterior
+
+    ts_lines = from_posterior(post).summary().splitlines()
+    print("\n" + "\n".join(ln for ln in ts_lines if not ln.startswith("warn")))
     if not post.converged:
         warns.append({"code": "not_converged", "message": post.message})
     print_warnings(warns)
