@@ -183,10 +183,36 @@ def test_from_posterior_free_air_set():
     from bayes_emt.thiele_small import from_posterior
 
     sim = simulate_driver("I", deltas=(), seed=10, n_points=200)
-    post = sample_posterior(sim.free, parse_model_spec("I"), seed=0, max_steps=200, progress=False)
+    with pytest.warns(Warning):  # 200 steps do not meet the stopping rule: said, not hidden
+        post = sample_posterior(sim.free, parse_model_spec("I"), seed=0, max_steps=200, progress=False)
     ts = from_posterior(post)
     assert set(ts.parameters) == {"fs", "Re", "Le", "Qms", "Qes", "Qts", "EBP"}
     for p in ts.parameters.values():
         assert p["ci90"][0] <= p["value"] <= p["ci90"][1]
     assert abs(ts["fs"] - sim.truth["fs"]) < 0.05 * sim.truth["fs"]
     assert post.converged or any(w["code"] == "not_converged" for w in ts.warnings)
+
+
+def test_report_puts_ts_first_and_groups_warnings(tmp_path):
+    """The report's first section is the T/S table (from ts.json); the same warning about several
+    models is one entry listing them; the terminal formatter gives one line per distinct warning."""
+    from bayes_emt.cli.commands._common import warning_lines
+    from bayes_emt.report.render import render_report
+
+    sim = simulate_driver("I+semi_inductance", deltas=(), seed=11, n_points=300)
+    ts = thiele_small(sim.free, "I+semi_inductance", mms=sim.truth["Mms"], sd=sim.sd, fast=True,
+                      models_for_spread=[])
+    ts.save(tmp_path / "ts.json")
+    msg = ("UD cannot describe these data: the residuals are up to 289 times the noise level; largest in "
+           "10–40.38 Hz (62.83–253.7 rad/s); try: enclosure_port or second_resonance, SPEC §7")
+    fits = {m: {"model": "I", "parameters": {"zeta": 0.1, "omega0": 250.0, "phi": 50.0, "R0": 5.0,
+                                            "L0": 1e-3},
+                "rms_rel_residual": 0.01, "warnings": [{"code": "model_inadequate", "message": msg}]}
+            for m in ("I", "II")}
+    (tmp_path / "fits.json").write_text(json.dumps(fits))
+    html = render_report(tmp_path)
+    assert html.index("Thiele–Small parameters") < html.index('id="sec-data"')
+    assert html.count("<code>model_inadequate</code>") == 1
+    lines = warning_lines([{**w, "model": m} for m, r in fits.items() for w in r["warnings"]])
+    assert lines == ["warning [model_inadequate] 10-40.4 Hz: residuals up to 289x the noise; try "
+                     "enclosure_port, second_resonance (I, II)"]
