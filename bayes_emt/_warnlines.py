@@ -12,6 +12,7 @@ __all__ = ["band_hz", "short_hint", "group_warnings"]
 
 _WORST = re.compile(r"largest in ([0-9.e+-]+)[–-]([0-9.e+-]+) Hz")
 _BAND = re.compile(r"in ([0-9.e+-]+)[–-]([0-9.e+-]+) Hz")
+_MODEL_PREFIX = re.compile(r"^([A-Za-z0-9()+_]{1,40}): (.+)$", re.S)
 _TERMS = ("enclosure_port", "second_resonance", "suspension_creep", "semi_inductance", "winding_capacitance",
           "lr2", "lead_impedance", "thermal_drift", "measurement_artifact", "eddy")
 
@@ -54,14 +55,20 @@ def group_warnings(records: Iterable, *, default_source: str | None = None) -> l
         if not isinstance(w, Mapping):
             w = {"code": "", "message": str(w)}
         code, msg = str(w.get("code") or ""), str(w.get("message", ""))
-        short = str(w.get("short") or short_hint(code, msg))
-        key = (code, band_hz(w), short)
         srcs = list(w.get("models") or [])
+        prefix = None
+        m = _MODEL_PREFIX.match(msg)
+        if m:  # "UD: ..." names the model the message is about: a source, not part of the hint
+            prefix, msg = m.group(1), m.group(2)
+        short = str(w.get("short") or short_hint(code, msg))
+        key = (code, band_hz({**w, "message": msg}), short)
         for k in ("model", "source"):
             if w.get(k):
                 srcs.append(str(w[k]))
         if not srcs and default_source:
             srcs = [default_source]
+        if prefix:
+            srcs = [f"{x} {prefix}" for x in srcs] or [prefix]
         g = merged.setdefault(key, {"code": code, "band": key[1], "short": short, "sources": [],
                                     "messages": []})
         g["sources"] += [s for s in srcs if s not in g["sources"]]
