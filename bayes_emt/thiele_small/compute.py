@@ -166,6 +166,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                                     progress=False)
             if not post.converged:
                 warns.append({"code": "not_converged", "model": model.label, "run": label,
+                              "short": f"the {label} posterior did not meet the stopping rule",
                               "message": f"the {label} posterior did not meet the stopping rule: "
                                          f"{post.message}"})
             theta = post.theta()
@@ -182,6 +183,8 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         jm = mfit.joint
         if mfit.consistency["p_value"] < 1e-3:
             warns.append({"code": "runs_inconsistent", "model": model.label,
+                          "short": f"the recordings disagree (F = {mfit.consistency['F']:.3g}): Mms, Bl "
+                                   "intervals are lower bounds",
                           "message": f"the {len(runs)} recordings do not share one set of parameters within "
                                      f"their scatter (F = {mfit.consistency['F']:.3g}, p = "
                                      f"{mfit.consistency['p_value']:.2g}): Mms and Bl carry that mismatch; "
@@ -197,6 +200,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             x, info = sample_multi_mass(runs, deltas, pm, fit=mfit, seed=inp.seed, settings=inp.settings)
             if not info["converged"]:
                 warns.append({"code": "not_converged", "model": model.label,
+                              "short": "the joint posterior did not meet the stopping rule",
                               "message": "the joint posterior did not meet the stopping rule: "
                                          f"{info['message']}"})
         out = []
@@ -224,6 +228,7 @@ def _volume(bound, bbound, theta, theta_c, vb, inp, warns, model):
     vas = vb * (tc["fs"] * tc["Qes"] / (ts["fs"] * ts["Qes"]) - 1.0)
     if np.median(vas) <= 0:
         warns.append({"code": "box_no_stiffer", "model": model.label,
+                      "short": "box resonance not above free air's: Vas not positive",
                       "message": "the box recording's resonance is not above free air's: Vas from the "
                                  "added-volume formula is not positive (is the box sealed, is Vb right?)"})
     if inp.sd is not None:
@@ -324,6 +329,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             _, pv, rms = _estimate(cand, method, inp, "point", [])
         except Exception as exc:  # noqa: BLE001 - a candidate that cannot be fitted is reported, not fatal
             warns.append({"code": "spread_model_failed", "model": cand.label,
+                          "short": "could not be fitted for the model spread",
                           "message": f"candidate {cand.label} for the model spread could not be "
                                      f"fitted: {exc}"})
             continue
@@ -345,14 +351,16 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
         params[name] = {"value": float(med), "ci90": [float(lo), float(hi)], "unit": UNITS[name],
                         "model_spread": [min(vals), max(vals)] if len(vals) > 1 else None}
     if fast:
-        warns.append({"code": "fast_intervals", "message": "intervals from the least-squares fit's Gaussian "
+        warns.append({"code": "fast_intervals", "short": "intervals from the fit's covariance (--fast), not "
+                      "the posterior", "message": "intervals from the least-squares fit's Gaussian "
                       "approximation (its covariance, delta method by 4000 draws), not from the posterior: "
                       "they can be too narrow where the posterior is skewed or the fit is poor"})
     if "lambda_creep" in main.names:
-        warns.append({"code": "creep_convention", "message": "suspension creep: fs is where the mechanical "
-                      "reactance vanishes and Qms includes the creep loss at fs (Knudsen & Jensen LOG "
-                      "model, as "
-                      "Klippel LPM and Speakerbench report them); zeta and omega0 stay model parameters; "
+        warns.append({"code": "creep_convention", "short": "fs, Qms by the LOG-creep convention (fs at zero "
+                      "mechanical reactance); see the JSON",
+                      "message": "suspension creep: fs is where the mechanical reactance vanishes and Qms "
+                      "includes the creep loss at fs (Knudsen & Jensen LOG model, as Klippel LPM and "
+                      "Speakerbench report them); zeta and omega0 stay model parameters; "
                       "Qms_viscous is the viscous part alone"})
     inputs = {"data": meas.source, "f_range_hz": [float(meas.f_hz[0]), float(meas.f_hz[-1])],
               "loaded": [{"data": m.source, "delta_m_kg": d} for m, d in lm],
