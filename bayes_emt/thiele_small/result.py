@@ -11,6 +11,7 @@ from pathlib import Path
 
 from .._atomic import atomic_write_text
 from .._json import strict_json
+from .._warnlines import group_warnings
 from ..errors import DataFormatError
 from .relations import DISPLAY, NAMES, UNITS
 
@@ -89,8 +90,9 @@ class ThieleSmall:
         text = [f"Thiele-Small parameters ({self.method.replace('_', ' ')}, model {self.model}, "
                 f"intervals from the {how})", line.format(*head), "  ".join("-" * w for w in widths)]
         text += [line.format(*r) for r in rows]
-        for w in self.warnings:
-            text.append(f"warning [{w['code']}]: {w.get('short', w['message'])}")
+        for g in group_warnings(self.warnings):  # one line each; the full text is in to_json()
+            who = f" ({', '.join(g['sources'])})" if g["sources"] else ""
+            text.append(f"warning [{g['code']}]{g['band']}: {g['short']}{who}")
         return "\n".join(text)
 
     def _repr_html_(self) -> str:
