@@ -197,7 +197,10 @@ def test_fit_json_and_stdout_carry_the_fits_warnings(tmp_path, capsys):
     rec = json.loads(out.read_text())
     codes = [w["code"] for w in rec["warnings"]]
     assert "model_inadequate" in codes and all(set(w) == {"code", "message"} for w in rec["warnings"])
-    assert "WARNING [model_inadequate]" in text and "Hz" in text and "rad/s" in text
+    # one terminal line per warning (issue 22): code, band in Hz, short hint; the full text in the JSON
+    lines = [ln for ln in text.splitlines() if ln.startswith("warning [")]
+    assert len(lines) == 1 and lines[0].startswith("warning [model_inadequate]") and " Hz: " in lines[0]
+    assert "rad/s" in rec["warnings"][0]["message"]
 
 
 def test_sample_json_carries_the_fits_warnings(tmp_path, capsys):

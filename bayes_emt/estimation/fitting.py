@@ -208,6 +208,28 @@ def _starts(meas: Measurement, model: Model, initial, max_nfev):
         "global_stage": ie.details.get("global_stage", False), "alternatives": len(ie.alternatives)}
 
 
+def _re_polish(model: Model, final: _Problem, z, lo, hi, re, max_nfev, info):
+    """The ``re=(R_meter, sd)`` option of :func:`fit_admittance`: the penalised residual and its optimum."""
+    value, sd = (float(v) for v in re)
+    if not (np.isfinite(value) and value > 0 and np.isfinite(sd) and sd > 0):
+        raise ValueError(f"re must be (ohms > 0, sd > 0), got {re!r}")
+    if "R0" not in model.names:
+        raise ValueError(f"model {model.label} has no R0 to constrain with an ohmmeter reading")
+    i = model.names.index("R0")
+    r0 = final.residuals(z)
+    scale = float(np.sqrt(r0 @ r0 / max(r0.size - model.ndim, 1)))
+
+    def batch(zb):
+        zb = np.asarray(zb, float)
+        pen = scale * (model.params[i].from_z(zb[..., i]) - value) / sd
+        return np.concatenate([final.batch(zb), pen[..., None]], axis=-1)
+
+    sol = batched_least_squares(batch, z, lo, hi, max_nfev=max_nfev)
+    info["re"] = {"value": value, "sd": sd, "R0_before": float(model.params[i].from_z(z[i])),
+                  "R0_after": float(model.params[i].from_z(sol.x[i])), "residual_scale": scale}
+    return batch, sol.x
+
+
 def _resonance_rule(model: Model, resonance):
     """``plausible(z)``: the candidate's ``ω0`` lies within a factor 2 of the half-prominence band
     of the resonance the data shows (:func:`~bayes_emt.estimation.checks.locate_resonance`); always true
@@ -241,7 +263,8 @@ def _rejection(model: Model, z, cost: float, final, where: str) -> dict:
 
 def fit_admittance(meas: Measurement, model: Model, *, initial=None,
                    omega_range: tuple[float | None, float | None] | None = None,
-                   polish: bool = True, max_nfev: int | None = None) -> FitResult:
+                   polish: bool = True, max_nfev: int | None = None,
+                   re: tuple[float, float] | None = None) -> FitResult:
     """Fit ``model`` to ``meas`` from the automatic initial estimate (SPEC §3.1–3.2).
 
     Parameters
@@ -255,6 +278,10 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         residuals at that point.
     max_nfev : evaluation budget of the final polish (default 25 per parameter; the intermediate
         steps get at most 30 per parameter). A polish that runs out reports ``success=False``.
+    re : an ohmmeter reading ``(R_meter, sd)`` [Ω]: after the fit, one more polish adds the
+        penalty residual ``s (R0 − R_meter)/sd`` (``s`` the fit's residual scale, so the penalty
+        weighs as a Gaussian constraint of standard deviation ``sd`` against the data); the
+        covariance includes it. ``info["re"]`` records it.
 
     Returns
     -------
@@ -347,11 +374,14 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
                       "message": sol.message, "seconds": time.perf_counter() - t})
     if rejected:
         info["rejected"] = rejected
+    batch = final.batch
+    if re is not None:
+        batch, z = _re_polish(model, final, z, lo, hi, re, max_nfev, info)
     theta = model.params.from_z(z)
     if not np.all(np.isfinite(theta)):
         raise FitError(f"{meas.source}: the fit of model {model.label} diverged")
-    r = final.residuals(z)
-    J = central_jacobian(final.batch, z)
+    r = batch(z[None, :])[0]
+    J = central_jacobian(batch, z)
     rel = relative_residuals(model, meas, theta)
     info["steps"] = steps
     info["seconds"] = time.perf_counter() - t0

@@ -8,6 +8,8 @@ sections whose files exist and says plainly which steps were not run.
 file                              written by / content
 ================================  =============================================================
 ``run.json``                      the demo: data summary, steps run or skipped (and why), timing
+``ts.json``                       ``ts --json`` (Thiele–Small parameters with intervals; else the
+                                  report derives the free-air set from the best fit, no intervals)
 ``fits.json``                     ``{model: fit --json record}`` (parameters, stderr, units)
 ``hankel.json``                   NL ring count by Hankel singular values
 ``comparison.json``               ``compare --json`` (log Z per method, Bayes factors, scale)
@@ -29,9 +31,10 @@ from __future__ import annotations
 
 __all__ = ["RUN", "FITS", "HANKEL", "COMPARISON", "EVIDENCE_PNG", "POSTERIOR_JSON", "POSTERIOR_NC",
            "POSTERIOR_BODE", "POSTERIOR_CORNER", "RESIDUALS_PNG", "SHUNTS", "ROBUST", "ROBUST_PNGS",
-           "DIAGNOSIS", "DIAGNOSIS_RESIDUALS", "DIAGNOSIS_DIR", "REPORT"]
+           "DIAGNOSIS", "DIAGNOSIS_RESIDUALS", "DIAGNOSIS_DIR", "REPORT", "TS"]
 
 RUN = "run.json"
+TS = "ts.json"
 FITS = "fits.json"
 HANKEL = "hankel.json"
 COMPARISON = "comparison.json"

@@ -200,9 +200,46 @@ def _param_rows(params: dict, units: dict[str, str], group: str = "") -> list[di
     return rows
 
 
+def ts_section(rf: RunFiles, run: dict | None) -> dict:
+    """The Thiele–Small table: ``ts.json`` if saved (values, 90 % intervals, model spread), else
+    the free-air set at the best least-squares fit (SPEC §8 relations, no intervals)."""
+    from ..thiele_small import read_thiele_small
+    from ..thiele_small.relations import DISPLAY, NAMES, free_air
+
+    rec = rf.json(L.TS)
+    if isinstance(rec, dict) and "parameters" in rec:
+        try:
+            ts = read_thiele_small(rec)
+        except Exception as exc:  # noqa: BLE001 - a bad file is reported, the report still renders
+            rf.problems.append(f"{L.TS}: {exc}")
+        else:
+            return _section("ts", "Thiele–Small parameters", True, rows=ts.rows(), model=ts.model,
+                            method=ts.method.replace("_", " "), intervals=True,
+                            uncertainty=ts.inputs.get("uncertainty", "posterior"))
+    fits = rf.json(L.FITS)
+    if isinstance(fits, dict) and fits:
+        from ..io.paramfile import model_from_record
+
+        ok = {m: r for m, r in fits.items() if finite(r.get("rms_rel_residual"))}
+        if ok:
+            best = min(ok, key=lambda m: ok[m]["rms_rel_residual"])
+            try:
+                model, theta = model_from_record(ok[best], where=f"{L.FITS}: {best}")
+                vals = free_air(model, theta[None, :])
+            except Exception as exc:  # noqa: BLE001
+                rf.problems.append(f"{L.FITS}: {best}: no T/S set ({exc})")
+            else:
+                rows = [(n, f"{float(vals[n][0]) * DISPLAY[n][1]:.4g}", "-", "-", DISPLAY[n][0])
+                        for n in NAMES if n in vals]
+                return _section("ts", "Thiele–Small parameters", True, rows=rows, model=best,
+                                method="free air, best least-squares fit", intervals=False, uncertainty="")
+    return _section("ts", "Thiele–Small parameters", False,
+                    "Not run: no ts.json and no fit to derive the free-air set from.")
+
+
 def collect_sections(rf: RunFiles, run: dict | None) -> list[dict]:
-    """Every section, in reading order."""
-    return [data_section(rf, run), fits_section(rf, run), evidence_section(rf, run),
+    """Every section, in reading order (the Thiele–Small table first)."""
+    return [ts_section(rf, run), data_section(rf, run), fits_section(rf, run), evidence_section(rf, run),
             posterior_section(rf, run), shunt_section(rf, run), robust_section(rf, run),
             diagnosis_section(rf, run)]
 
@@ -230,10 +267,12 @@ def collect_warnings(rf: RunFiles, run: dict | None) -> list[dict]:
         rec = rf.json(name)
         if isinstance(rec, dict):
             out += [normalise_warning(w, src) for w in rec.get("warnings", [])]
-    seen, uniq = set(), []
-    for w in out:
-        key = (w["source"], w["message"])
-        if key not in seen:
-            seen.add(key)
-            uniq.append(w)
-    return uniq
+    ts = rf.json(L.TS)
+    if isinstance(ts, dict):
+        out += [normalise_warning(w, "T/S") for w in ts.get("warnings", [])]
+    # one entry per (code, band, short hint): the same finding about several models or outputs is
+    # listed once with its sources; the full texts stay available under it
+    from .._warnlines import group_warnings
+
+    return [{"source": ", ".join(g["sources"]), "code": g["code"], "band": g["band"].strip(),
+             "message": g["short"], "full": g["messages"]} for g in group_warnings(out)]

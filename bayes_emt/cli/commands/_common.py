@@ -168,3 +168,44 @@ def print_warnings(warnings_list, *, indent: str = "") -> None:
     """Print a result's ``warnings`` (``{"code", "message"}`` records), one per line."""
     for w in warnings_list:
         print(f"{indent}WARNING [{w['code']}]: {w['message']}")
+
+
+def re_reading(text: str) -> tuple[float, float]:
+    """``OHM[:SD]`` of ``--re``: an ohmmeter reading [Ω] and its standard deviation (default 1 %)."""
+    value, _, sd = text.partition(":")
+    try:
+        v = float(value)
+        s = float(sd) if sd else 0.01 * v
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected OHM or OHM:SD (e.g. 5.72 or 5.72:0.02), "
+                                         f"got {text!r}") from None
+    if not (math.isfinite(v) and v > 0 and math.isfinite(s) and s > 0):
+        raise argparse.ArgumentTypeError(f"OHM and SD must be positive numbers, got {text!r}")
+    return v, s
+
+
+def add_re_option(p: argparse.ArgumentParser) -> None:
+    """``--re OHM[:SD]``: an ohmmeter reading of the DC resistance (a Normal prior on R0 for posteriors,
+    a penalty for least squares)."""
+    p.add_argument("--re", type=re_reading, default=None, metavar="OHM[:SD]",
+                   help="ohmmeter reading of the coil's DC resistance [ohm], optional standard deviation "
+                        "(default 1 %%): a Normal prior on R0 for posteriors, a penalty for least squares")
+
+
+def warning_lines(records, *, model: str | None = None) -> list[str]:
+    """One terminal line per distinct warning: ``warning [code] band: short hint (models)``; records
+    with the same code and band are merged (:func:`bayes_emt._warnlines.group_warnings`). The full
+    text stays in the JSON and the report."""
+    from ..._warnlines import group_warnings
+
+    out = []
+    for g in group_warnings(records, default_source=model):
+        who = f" ({', '.join(g['sources'])})" if g["sources"] else ""
+        out.append(f"warning [{g['code']}]{g['band']}: {g['short']}{who}")
+    return out
+
+
+def print_warning_lines(records, *, model: str | None = None) -> None:
+    """Print :func:`warning_lines`."""
+    for line in warning_lines(records, model=model):
+        print(line)

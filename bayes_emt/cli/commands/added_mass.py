@@ -14,6 +14,7 @@ from ._common import (
     add_model_args,
     add_output_args,
     add_parser,
+    add_re_option,
     detail,
     finite_float,
     model_from_args,
@@ -37,6 +38,7 @@ def register(sub) -> None:
                    help="mass added in LOADED [kg] (negative: removed)")
     add_model_args(p)
     add_data_args(p)
+    add_re_option(p)
     p.add_argument("--json", default=None, help="write the result as JSON here")
     add_output_args(p)
     p.set_defaults(func=run)
@@ -71,6 +73,10 @@ def run(args) -> int:
     if c["p_value"] < 1e-3:
         print("the two runs do not share one set of parameters within their scatter: treat the standard "
               "errors as lower bounds")
+    from ...thiele_small import thiele_small
+
+    print("\n" + thiele_small(base, model, loaded=[(loaded, args.delta_m)], re=args.re, fast=True,
+                              models_for_spread=[]).summary())
     if args.json:
         write_json(args.json, r.to_json_dict())
         note(args, f"wrote {args.json}")

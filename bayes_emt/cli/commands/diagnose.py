@@ -20,6 +20,7 @@ from ._common import (
     add_model_args,
     add_output_args,
     add_parser,
+    add_re_option,
     int_at_least,
     nonnegative_float,
     seed,
@@ -48,6 +49,7 @@ def register(sub) -> None:
     p.add_argument("--time-budget", type=nonnegative_float, default=240.0, metavar="CPU_S",
                    help="CPU seconds after which no further candidate is fitted (a warning says so; "
                         "default 240); 0: no budget, so the result does not depend on the machine's speed")
+    add_re_option(p)
     add_output_args(p)
     p.set_defaults(func=run)
 
@@ -64,6 +66,12 @@ def run(args) -> int:
         args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit, quantity=args.quantity
     ).select(args.omega_min, args.omega_max)
     model = model_from_args(args) if args.model else None
+    if args.re is not None:  # a Normal prior on R0: the evidences of the candidates see the reading
+        if model is None:
+            raise ValueError("--re needs --model (the reading becomes a prior on that model's R0)")
+        from ...params import Normal
+
+        model = model.with_priors({"R0": Normal(*args.re)}, where="--re")
     d = diagnose(
         meas,
         model,

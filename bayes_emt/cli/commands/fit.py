@@ -19,11 +19,12 @@ from ._common import (
     add_model_args,
     add_output_args,
     add_parser,
+    add_re_option,
     detail,
     model_from_args,
     note,
     print_table,
-    print_warnings,
+    print_warning_lines,
 )
 
 EXAMPLES = """\
@@ -45,6 +46,12 @@ def register(sub) -> None:
                         "residuals; paper: the paper's two steps only (R0 and omega0 from the "
                         "1/s-weighted step)")
     p.add_argument("--json", default=None, help="write the result as JSON here")
+    add_re_option(p)
+    p.add_argument("--priors", default=None, metavar="FILE",
+                   help="TOML/JSON prior overrides as for sample: their supports bound the fit; a normal "
+                        "(or lognormal) prior on R0 acts as --re")
+    p.add_argument("--ts", action="store_true",
+                   help="also print the Thiele-Small free-air set (fast intervals)")
     add_output_args(p)
     p.set_defaults(func=run)
 
@@ -58,11 +65,21 @@ def run(args) -> int:
     from ...io import read_measurement
     from ...io.paramfile import write_json
 
-    check_outputs([("--json", args.json)], [("DATA", args.data)])
+    check_outputs([("--json", args.json)], [("DATA", args.data), ("--priors", args.priors)])
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
                             quantity=args.quantity).select(args.omega_min, args.omega_max)
     model = model_from_args(args)
-    fits = {name: fit_admittance(meas, model, polish=(name == "polished")) for name in ("polished", "paper")}
+    re_reading = args.re
+    if args.priors:
+        from ...inference.priors import apply_prior_file
+
+        model, _ = apply_prior_file(model, args.priors)
+        r0 = model.params["R0"].prior.to_dict()
+        if re_reading is None and r0["dist"] in ("normal", "lognormal"):
+            re_reading = (r0["mu"], r0["sigma"]) if r0["dist"] == "normal" else \
+                (r0["median"], r0["median"] * r0["sigma_log"])
+    fits = {name: fit_admittance(meas, model, polish=(name == "polished"), re=re_reading)
+            for name in ("polished", "paper")}
     fit = fits[args.procedure]
     r0 = {name: float(f.parameters["R0"]) for name, f in fits.items()}
     se = fit.stderr
@@ -79,13 +96,19 @@ def run(args) -> int:
         print(f"note: the optimiser did not converge ({fit.message})")
     if fit.cov_z is None:
         print("note: the Jacobian is rank-deficient; no standard errors")
-    print_warnings(fit.warnings)
+    print_warning_lines(fit.warnings, model=model.label)
     diff = r0["polished"] - r0["paper"]
     print(f"by procedure: R0 polished {r0['polished']:.5g} ohm, paper's two steps {r0['paper']:.5g} ohm "
           f"(difference {diff:+.4g} ohm, {100 * diff / r0['paper']:+.2g} %)")
     if abs(diff) > 0.01 * abs(r0["paper"]):
         print("note: the procedures disagree on R0 by more than 1 %: the coil model may miss physics; a "
               "negative-resistance shunt's stability depends on R0 (shunt --posterior reports by how much)")
+    if re_reading is not None:
+        print(f"ohmmeter reading R0 = {re_reading[0]:.5g} +/- {re_reading[1]:.2g} ohm applied as a penalty")
+    if args.ts:
+        from ...thiele_small import thiele_small
+
+        print(thiele_small(meas, model, re=re_reading, fast=True, models_for_spread=[]).summary())
     if args.json:
         write_json(args.json, {"kind": fit.kind, **fit.to_json_dict(), "procedure": args.procedure,
                                "R0_by_procedure": r0})

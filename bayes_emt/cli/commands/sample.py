@@ -22,6 +22,7 @@ from ._common import (
     add_data_args,
     add_model_args,
     add_output_args,
+    add_re_option,
     detail,
     finite_float,
     int_at_least,
@@ -83,6 +84,7 @@ def register(sub) -> None:
                         "jointly for the physical m, c, k, phi_raw")
     p.add_argument("--delta-m", type=finite_float, default=None, metavar="KG",
                    help="mass added in the --loaded recording [kg] (negative: removed)")
+    add_re_option(p)
     p.add_argument("--json", default=None, metavar="OUT", help="write the summary as JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write corner, Bode-band and trace PNGs here")
     add_output_args(p, progress=True)
@@ -140,10 +142,14 @@ def run(args) -> int:
                                           else f"{args.priors}: {name}: {msg}") from None
             physical = JointModel(model, args.delta_m).physical.with_priors(phys)
         model, noise = apply_priors(model, overrides, noise_params=noise, where=str(args.priors))
+    if args.re is not None:
+        from ...params import Normal
+
+        model = model.with_priors({"R0": Normal(*args.re)}, where="--re")
     # the least-squares fit under these priors: the walkers' start, and the warnings it carries
     fit, warns = None, []
     if loaded is None:
-        fit = fit_admittance(meas, model)
+        fit = fit_admittance(meas, model, re=args.re)
         warns = list(fit.warnings)
     else:
         for label, m in (("base run", meas), ("loaded run", loaded)):
@@ -174,6 +180,10 @@ def run(args) -> int:
                      f"chain {v['n_over_tau']:.1f} tau, tau change {v['tau_change']:.3g}, "
                      f"min ESS {v['ess_min']:.0f}")
     print(post.summary(), end="")
+    from ...thiele_small import from_posterior
+
+    ts_lines = from_posterior(post).summary().splitlines()
+    print("\n" + "\n".join(ln for ln in ts_lines if not ln.startswith("warn")))
     if not post.converged:
         warns.append({"code": "not_converged", "message": post.message})
     print_warnings(warns)

@@ -1,0 +1,300 @@
+"""Several added-mass recordings in one joint fit and one joint posterior ("dual added mass").
+
+Generalises :class:`~bayes_emt.added_mass.JointModel` from one loaded run to any number: one
+vector ``(m, c, k, phi_raw, R0, coil..., λ...)`` explains the free-air run (moving mass ``m``)
+and every loaded run ``i`` (mass ``m + Δm_i``). Speakerbench asks for two added masses (the
+second about double the first, ideally of the order of Mms; https://speakerbench.com/manual/),
+REW's T/S tool and the classic added-mass method for one; any number works here.
+
+Creep. With the LOG creep term (``suspension_creep``, Knudsen & Jensen 1993) the model's
+stiffness is referred to the run's own ``ω0``: ``C(jω) = (1/k)[1 + λ ln(ω0/jω)]``. One physical
+suspension seen at different resonances needs, for a run whose resonance is ``ω_i``, the
+``(k_i, λ_i)`` that give the *same* compliance function: ``λ_i/k_i = λ/k`` and
+``1/k_i = 1/k + (λ/k) ln(ω_b/ω_i)`` with ``ω_b = √(k/m)`` (the free-air reference) and
+``ω_i = √(k_i/(m + Δm_i))``, solved by a fixed-point iteration (λ ≤ 0.5: contraction).
+Without this, a joint fit of a creeping driver would give each run a different suspension.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from ..errors import FitError
+from ..estimation.results import FitResult
+from ..inference.likelihood import (
+    Likelihood,
+    SamplingSpaceDensity,
+    _sha256,
+    measurement_sha256,
+    noise_param_set,
+)
+from ..measurement import Measurement
+from ..models import Model
+from ..params import ParamSet, default_spec
+from .fit import PHYSICAL_NAMES, _rel_residuals, mechanics_from_physical, physical_from_two_fits
+from .posterior import _run_noise
+
+__all__ = ["MultiMassModel", "MultiMassFit", "MultiMassLikelihood", "fit_multi_mass", "sample_multi_mass"]
+
+_MECH = ("zeta", "omega0", "phi")
+_CREEP = "lambda_creep"
+
+
+@dataclass(frozen=True)
+class MultiMassModel:
+    """Runs of one transducer differing by known masses ``deltas`` [kg] (the first run is the
+    reference, Δm = 0, and is not listed). Joint vector: ``m, c, k, phi_raw`` then the model's
+    other parameters (``R0``, coil, ``lambda_creep``...) shared by all runs."""
+
+    model: Model
+    deltas: tuple[float, ...]
+    params: ParamSet = field(init=False)
+    shared: tuple[str, ...] = field(init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "deltas", tuple(float(d) for d in self.deltas))
+        if not self.deltas or not all(math.isfinite(d) and d != 0 for d in self.deltas):
+            raise ValueError(f"added masses must be non-zero finite masses in kg, got {list(self.deltas)}")
+        missing = [n for n in _MECH if n not in self.model.names]
+        if missing:
+            raise ValueError(f"model {self.model.label} lacks {missing}; an added-mass fit needs {_MECH}")
+        shared = tuple(n for n in self.model.names if n not in _MECH)
+        object.__setattr__(self, "shared", shared)
+        phys = ParamSet([default_spec(n) for n in PHYSICAL_NAMES])
+        object.__setattr__(self, "params", phys + ParamSet([self.model.params[n] for n in shared]))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self.params.names
+
+    @property
+    def n_runs(self) -> int:
+        return 1 + len(self.deltas)
+
+    def thetas(self, x) -> list[np.ndarray]:
+        """Each run's model vector ``(..., model.ndim)`` from the joint ``x (..., p)``."""
+        x = np.asarray(x, float)
+        m, c, k, phi = (x[..., i] for i in range(4))
+        lam = x[..., 4 + self.shared.index(_CREEP)] if _CREEP in self.shared else None
+        out = []
+        for dm in (0.0, *self.deltas):
+            mass = m + dm
+            k_i, lam_i = k, lam
+            if lam is not None and dm != 0.0:
+                w_b = np.sqrt(k / m)
+                k_i = k
+                for _ in range(30):  # fixed point of 1/k_i = 1/k + (λ/k) ln(ω_b/ω_i)
+                    w_i = np.sqrt(np.clip(k_i, 1e-300, None) / mass)
+                    k_i = 1.0 / (1.0 / k + lam / k * np.log(w_b / w_i))
+                lam_i = lam * k_i / k
+            z, w, p = mechanics_from_physical(mass, c, k_i, phi)
+            mech = {"zeta": z, "omega0": w, "phi": p}
+            cols = []
+            for n in self.model.names:
+                if n in mech:
+                    cols.append(mech[n])
+                elif n == _CREEP and lam_i is not None:
+                    cols.append(np.broadcast_to(lam_i, m.shape))
+                else:
+                    cols.append(x[..., 4 + self.shared.index(n)])
+            out.append(np.stack(cols, axis=-1))
+        return out
+
+    def start(self, fits: Sequence[FitResult]) -> np.ndarray:
+        """A joint vector from separate fits: ``m`` from the base run and each loaded run by the
+        two-fit formula (median), ``c, k, phi_raw`` from it, the shared parameters averaged in
+        sampling space."""
+        ms = []
+        for f, dm in zip(fits[1:], self.deltas, strict=True):
+            try:
+                ms.append(physical_from_two_fits(fits[0], f, dm)["m"])
+            except FitError:
+                continue
+        if not ms:
+            raise FitError("no loaded run moves the resonance the way its added mass says: cannot "
+                           "estimate the moving mass")
+        m = float(np.median(ms))
+        b = fits[0].parameters
+        k = m * b["omega0"] ** 2
+        phys = {"m": m, "c": 2 * b["zeta"] * m * b["omega0"], "k": k, "phi_raw": b["phi"] * math.sqrt(m)}
+        zs = np.mean([self.model.params.to_z(f.theta) for f in fits], axis=0)
+        idx = [self.model.params.index(n) for n in self.shared]
+        shared = self.model.params.from_z(zs)[idx]
+        if _CREEP in self.shared:  # the reference run's creep, not the average
+            shared[self.shared.index(_CREEP)] = b[_CREEP]
+        return np.concatenate([[phys[n] for n in PHYSICAL_NAMES], shared])
+
+
+@dataclass(frozen=True)
+class MultiMassFit:
+    """Joint least-squares fit of several added-mass runs (:func:`fit_multi_mass`).
+
+    ``values``/``stderr``: the joint vector [SI]; ``cov_z``: its sampling-space covariance;
+    ``runs``: each run's implied model parameters; ``noise_rel``: each run's relative residual
+    scale (from its separate fit); ``consistency``: F-test of the joint fit against separate
+    fits of every run; ``rms_rel_residual`` per run."""
+
+    joint: MultiMassModel
+    values: dict
+    stderr: dict
+    cov_z: np.ndarray | None
+    runs: tuple[dict, ...]
+    noise_rel: tuple[float, ...]
+    consistency: dict
+    rms_rel_residual: tuple[float, ...]
+    success: bool
+    message: str = ""
+
+    @property
+    def theta(self) -> np.ndarray:
+        return self.joint.params.vector(self.values)
+
+
+def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: Model, *,
+                   fits: Sequence[FitResult] | None = None, re: tuple[float, float] | None = None,
+                   max_nfev: int | None = None) -> MultiMassFit:
+    """Joint fit of a free-air run ``runs[0]`` and loaded runs ``runs[1:]`` (added ``deltas`` [kg]).
+
+    Minimises ``Σ_runs Σ_ω |Y_model − Y|²/(|Y|² s_run²)`` (each run scaled by its own separate-fit
+    residual scale ``s_run``) plus, with ``re = (R_meter, sd)`` [Ω], the penalty
+    ``((R0 − R_meter)/sd)²`` (an ohmmeter reading as a Gaussian constraint).
+    """
+    from ..estimation.fitting import batched_least_squares, central_jacobian, covariance_z, fit_admittance
+
+    if len(runs) != len(deltas) + 1:
+        raise ValueError(f"{len(runs)} recordings need {len(runs) - 1} added masses, got {len(deltas)}")
+    jm = MultiMassModel(model, tuple(deltas))
+    if fits is None:
+        fits = [fit_admittance(meas, model, re=re) for meas in runs]
+    chi2_sep, noise = [], []
+    for meas, f in zip(runs, fits, strict=True):
+        r = _rel_residuals(model, meas, f.theta)
+        chi2_sep.append(float(r @ r))
+        noise.append(math.sqrt(chi2_sep[-1] / max(r.size - model.ndim, 1)))
+    if not all(s > 0 for s in noise):
+        noise = [1.0] * len(runs)
+    i_r0 = jm.names.index("R0") if "R0" in jm.names else None
+
+    def batch(z):
+        x = jm.params.from_z(z)
+        parts = [_rel_residuals(model, meas, th) / s
+                 for meas, th, s in zip(runs, jm.thetas(x), noise, strict=True)]
+        if re is not None and i_r0 is not None:
+            parts.append(((x[..., i_r0] - re[0]) / re[1])[..., None])
+        out = np.concatenate(parts, axis=-1)
+        return np.where(np.isfinite(out), out, 1e10)
+
+    x0 = jm.start(fits)
+    lo, hi = jm.params.bounds_z()
+    neg = [d for d in jm.deltas if d < 0]
+    if neg:
+        lo[0] = max(lo[0], float(jm.params[0].to_z(-min(neg) * (1 + 1e-9))))
+    p = x0.size
+    sol = batched_least_squares(batch, jm.params.to_z(x0), lo, hi, max_nfev=max_nfev or 50 * p)
+    r = batch(sol.x[None, :])[0]
+    cov = covariance_z(central_jacobian(batch, sol.x), r, p)
+    x = jm.params.from_z(sol.x)
+    se = np.full(p, np.nan) if cov is None else np.sqrt(np.clip(np.diag(cov), 0, None))
+    se = np.array([abs(v) * s if spec.transform == "log" else s
+                   for spec, v, s in zip(jm.params, x, se, strict=True)])
+    thetas = jm.thetas(x)
+    chi2_joint = float(r @ r)
+    chi2_s = sum(c / s**2 for c, s in zip(chi2_sep, noise, strict=True))
+    q, dof = len(runs) * model.ndim - p, r.size - len(runs) * model.ndim
+    F = max(chi2_joint - chi2_s, 0.0) / max(q, 1) / (chi2_s / dof) if chi2_s > 0 and dof > 0 else float("nan")
+    pval = float(stats.f.sf(F, max(q, 1), max(dof, 1))) if math.isfinite(F) else float("nan")
+    rms = tuple(float(np.sqrt(np.mean(np.abs(model.admittance(ms.omega, t) - ms.Y) ** 2 / np.abs(ms.Y) ** 2)))
+                for ms, t in zip(runs, thetas, strict=True))
+    return MultiMassFit(joint=jm, values=dict(zip(jm.names, map(float, x), strict=True)),
+                        stderr=dict(zip(jm.names, map(float, se), strict=True)), cov_z=cov,
+                        runs=tuple(model.as_dict(t) for t in thetas), noise_rel=tuple(noise),
+                        consistency={"F": float(F), "dof": [q, dof], "p_value": pval},
+                        rms_rel_residual=rms, success=bool(sol.status > 0), message=str(sol.message))
+
+
+@dataclass(frozen=True, eq=False)
+class MultiMassLikelihood(SamplingSpaceDensity):
+    """``Σ_runs log p(Y_run | x)`` for the joint vector of :class:`MultiMassModel` plus each run's
+    noise scales (``sigma_rel_run<i>``, ``sigma_abs_run<i>``; run 0 is the reference), Gaussian.
+    The model's priors (e.g. a Normal prior on ``R0`` from an ohmmeter) apply to the shared
+    parameters."""
+
+    joint: MultiMassModel
+    runs: tuple[Measurement, ...]
+
+    def __post_init__(self):
+        noise = noise_param_set("gaussian", None)
+        liks = tuple(Likelihood(self.joint.model, m, "gaussian", None, noise) for m in self.runs)
+        object.__setattr__(self, "liks", liks)
+        params = self.joint.params
+        for i in range(len(self.runs)):
+            params = params + _run_noise(noise, f"run{i}")
+        object.__setattr__(self, "params", params)
+
+    @property
+    def model(self) -> Model:
+        return self.joint.model
+
+    @property
+    def ndim(self) -> int:
+        return len(self.params)
+
+    @property
+    def label(self) -> str:
+        return f"{len(self.runs)} added-mass runs, model {self.model.label}"
+
+    def identity(self) -> dict:
+        data = "".join(measurement_sha256(m) for m in self.runs).encode()
+        return {"model": f"{self.model.label} multi-mass", "names": list(self.params.names),
+                "deltas": list(self.joint.deltas), "data_sha256": _sha256(data), "source": self.label}
+
+    def run_thetas(self, x) -> list[np.ndarray]:
+        x = np.asarray(x, float)
+        p = len(self.joint.params)
+        return [np.concatenate([th, x[..., p + 2 * i : p + 2 * i + 2]], axis=-1)
+                for i, th in enumerate(self.joint.thetas(x[..., :p]))]
+
+    def __call__(self, x) -> np.ndarray:
+        return sum(lik(th) for lik, th in zip(self.liks, self.run_thetas(x), strict=True))
+
+
+def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: Model, *,
+                      fit: MultiMassFit | None = None, seed: int = 0, settings=None,
+                      progress: bool | None = False):
+    """Joint posterior of the runs (emcee, the stopping rule of :mod:`bayes_emt.inference.sampling`).
+
+    Returns ``(draws (n, p_joint) [SI], info)`` with ``info``: ``converged``, ``message``,
+    ``wall_time`` [s], ``n_draws``, ``tau_max``.
+    """
+    from ..inference.posterior import Posterior
+    from ..inference.sampling import SamplerSettings, noise_start, run_ensemble, start_ball
+
+    settings = SamplerSettings() if settings is None else settings
+    t0 = time.perf_counter()
+    jm = MultiMassModel(model, tuple(deltas))
+    lik = MultiMassLikelihood(jm, tuple(runs))
+    fit = fit_multi_mass(runs, deltas, model) if fit is None else fit
+
+    def start(nwalkers):
+        z0 = jm.params.to_z(fit.theta)
+        cov = fit.cov_z if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)) else \
+            np.diag((1e-3 * np.maximum(np.abs(z0), 1.0)) ** 2)
+        centre, spread = [], []
+        for meas, rms in zip(runs, fit.rms_rel_residual, strict=True):
+            c, s = noise_start(rms, float(np.min(np.abs(meas.Y))))
+            centre += c
+            spread += s
+        return start_ball(lik, z0, cov, centre, spread, nwalkers, np.random.default_rng(seed))
+
+    run = run_ensemble(lik, start, seed=seed, progress=progress, settings=settings)
+    post = Posterior.from_chain(lik, **run)
+    draws = post.flat()[:, : len(jm.params)]
+    return draws, {"converged": bool(run["converged"]), "message": run["message"],
+                   "wall_time": time.perf_counter() - t0, "n_draws": int(draws.shape[0]),
+                   "tau_max": float(np.max(run["tau"]))}

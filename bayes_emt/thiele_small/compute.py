@@ -1,0 +1,423 @@
+"""``thiele_small(...)``: the loudspeaker engineer's bench workflow (free air, added mass, added
+volume) with credible intervals and the spread across coil models.
+
+Methods
+-------
+* **free air** (one recording): fs, Re, Le, Qms, Qes, Qts, EBP; with a known Mms or Bl also Bl,
+  Mms, Cms, Kms, Rms, and with Sd Vas, η0, SPL.
+* **added mass** (the free-air recording plus one or more recordings with known masses Δm
+  glued to the cone): one joint posterior of ``(Mms, c, k, Bl, R0, coil...)`` over all
+  recordings (:mod:`bayes_emt.added_mass.multi`), the "dual added mass" of Speakerbench
+  (https://speakerbench.com/manual/) and REW when two masses are given.
+* **added volume** (the free-air recording plus one in a sealed test box of known net volume
+  Vb): ``Vas = Vb ((fc Qec)/(fs Qes) − 1)`` (the classic closed-box method: R. H. Small,
+  "Closed-box loudspeaker systems, Part I", JAES 20(10), 1972; the same formula in V. Dickason,
+  *The Loudspeaker Design Cookbook*), fc and Qec from the box recording's fit, fs and Qes
+  from free air; then with Sd: Cms = Vas/(ρ c² Sd²), Mms = 1/(ωs² Cms), Bl = √(ωs Mms Re/Qes).
+  The two recordings are independent: their posteriors' draws are paired at random.
+
+Uncertainty: the posterior's median and 5–95 % quantiles of each quantity (emcee, the
+stopping rule of :mod:`bayes_emt.inference.sampling`, with the T/S budget
+:data:`TS_SAMPLER`); ``fast=True`` replaces the posterior by the least-squares fit's Gaussian
+approximation in sampling space (its covariance, i.e. the standard errors and correlations),
+pushed through the relations by 4000 draws, and says so in the warnings.
+
+``model_spread``: each quantity's range over the candidate models (``models_for_spread``;
+default the eddy-current coil models II, III and UD with the main model's physics terms) whose
+least-squares fit is adequate, i.e. whose rms relative residual is within a factor
+:data:`ADEQUATE_RMS_FACTOR` of the best candidate's. It is an unweighted range: no evidence is
+computed here (say so in ``inputs["model_spread"]``).
+
+An ohmmeter reading ``re=(R, sd)`` [Ω] enters the fits as a penalty and the posterior as a
+Normal prior on R0 (:func:`~bayes_emt.estimation.fitting.fit_admittance`'s ``re``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataFormatError
+from ..measurement import Measurement
+from ..models import Model, parse_model_spec
+from ..params import Normal
+from .relations import NAMES, UNITS, free_air, with_mass, with_sd
+from .result import ThieleSmall
+
+__all__ = ["thiele_small", "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES", "parse_re"]
+
+ADEQUATE_RMS_FACTOR = 1.5
+DEFAULT_SPREAD_BASES = ("II", "III", "UD")
+_LAPLACE_DRAWS = 4000
+
+
+def _ts_sampler():
+    from ..inference.sampling import SamplerSettings
+
+    return SamplerSettings(max_steps=3000, ess_target=400.0, min_tau_multiple=25.0, max_draws=2000)
+
+
+#: the sampler settings of a T/S posterior (a smaller ESS target than ``sample``'s 1000: quantiles
+#: of 5 % and 95 % from 400 effective draws move by about 0.1 posterior standard deviations)
+TS_SAMPLER = None  # built lazily by _ts_sampler (inference is imported on use)
+
+
+def parse_re(re) -> tuple[float, float] | None:
+    """``re`` as ``(ohms, sd)``: a number means a 1 % standard deviation."""
+    if re is None:
+        return None
+    if isinstance(re, int | float):
+        value, sd = float(re), 0.01 * float(re)
+    else:
+        try:
+            value, sd = (float(v) for v in re)
+        except (TypeError, ValueError):
+            raise ValueError(f"re must be ohms or (ohms, sd), got {re!r}") from None
+    if not (math.isfinite(value) and value > 0 and math.isfinite(sd) and sd > 0):
+        raise ValueError(f"re must be a positive resistance [ohm] with a positive sd, got {re!r}")
+    return value, sd
+
+
+def _measurement(x, where: str, read_options: dict | None, f_range_hz) -> Measurement:
+    if isinstance(x, Measurement):
+        meas = x
+    elif isinstance(x, str | Path):
+        from ..io import read_measurement
+
+        meas = read_measurement(x, **(read_options or {}))
+    else:
+        raise TypeError(f"{where}: expected a Measurement or a file path, got {type(x).__name__}")
+    if f_range_hz is not None:
+        lo, hi = f_range_hz
+        meas = meas.select(None if lo is None else 2 * math.pi * lo, None if hi is None else 2 * math.pi * hi)
+    return meas
+
+
+def _model(model) -> Model:
+    return parse_model_spec(model) if isinstance(model, str) else model
+
+
+def _laplace(params, z_hat, cov, n, rng):
+    """``n`` draws of the physical vector from ``N(z_hat, cov)`` in sampling space (clipped to the
+    support)."""
+    lo, hi = params.bounds_z()
+    z = rng.multivariate_normal(z_hat, cov, size=n, method="eigh")
+    return params.from_z(np.clip(z, lo, hi))
+
+
+@dataclass
+class _Inputs:
+    meas: Measurement
+    loaded: list[tuple[Measurement, float]]
+    box: tuple[Measurement, float] | None
+    sd: float | None
+    re: tuple[float, float] | None
+    mms: float | None
+    bl: float | None
+    rho: float
+    c: float
+    seed: int
+    settings: object
+
+
+def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
+    """Mass-dependent quantities from ``mms`` (per row), a known Mms or a known Bl; then Sd."""
+    if mms is None and inp.mms is not None:
+        mms = inp.mms
+    if mms is None and inp.bl is not None:
+        phi = np.atleast_2d(theta)[:, model.params.index("phi")]
+        mms = inp.bl**2 / phi**2
+    if mms is not None:
+        ts = with_mass(ts, model, theta, mms)
+        if inp.sd is not None:
+            ts = with_sd(ts, inp.sd, inp.rho, inp.c)
+    return ts
+
+
+def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
+    """``(ts arrays, ts at the least-squares point, rms)`` of one model: ``mode`` ``"point"``
+    (least squares only; the arrays are then that point), ``"laplace"`` or ``"posterior"``."""
+    from ..added_mass.multi import MultiMassModel, fit_multi_mass, sample_multi_mass
+    from ..estimation.fitting import fit_admittance
+    from ..inference.sampling import sample_posterior
+
+    rng = np.random.default_rng(inp.seed)
+    prior_model = model if inp.re is None else model.with_priors({"R0": Normal(inp.re[0], inp.re[1])})
+
+    def single(meas, label):
+        fit = fit_admittance(meas, model, re=inp.re)
+        warns.extend({"code": w["code"], "message": w["message"], "model": model.label, "run": label}
+                     for w in fit.warnings)
+        point = fit.theta[None, :]
+        if mode == "point":
+            theta = point
+        elif mode == "laplace":
+            if fit.cov_z is None:
+                raise DataFormatError(f"{meas.source}: the fit of {model.label} has no covariance (singular "
+                                      "Jacobian): fast intervals are not available; drop fast")
+            params = fit.model.params
+            theta = _laplace(params, params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS, rng)
+        else:
+            post = sample_posterior(meas, prior_model, fit=fit, seed=inp.seed, settings=inp.settings,
+                                    progress=False)
+            if not post.converged:
+                warns.append({"code": "not_converged", "model": model.label, "run": label,
+                              "short": f"the {label} posterior did not meet the stopping rule",
+                              "message": f"the {label} posterior did not meet the stopping rule: "
+                                         f"{post.message}"})
+            theta = post.theta()
+        return fit.model, theta, point, fit.rms_rel_residual
+
+    if method == "free_air":
+        bound, theta, point, rms = single(inp.meas, "free air")
+        return (_complete(free_air(bound, theta), bound, theta, inp),
+                _complete(free_air(bound, point), bound, point, inp), rms)
+    if method == "added_mass":
+        runs = [inp.meas] + [m for m, _ in inp.loaded]
+        deltas = [d for _, d in inp.loaded]
+        mfit = fit_multi_mass(runs, deltas, model, re=inp.re)
+        jm = mfit.joint
+        if mfit.consistency["p_value"] < 1e-3:
+            warns.append({"code": "runs_inconsistent", "model": model.label,
+                          "short": f"the recordings disagree (F = {mfit.consistency['F']:.3g}): Mms, Bl "
+                                   "intervals are lower bounds",
+                          "message": f"the {len(runs)} recordings do not share one set of parameters within "
+                                     f"their scatter (F = {mfit.consistency['F']:.3g}, p = "
+                                     f"{mfit.consistency['p_value']:.2g}): Mms and Bl carry that mismatch; "
+                                     "treat their intervals as lower bounds"})
+        if mode == "point":
+            x = mfit.theta[None, :]
+        elif mode == "laplace":
+            if mfit.cov_z is None:
+                raise DataFormatError(f"the joint fit of {model.label} has no covariance: drop fast")
+            x = _laplace(jm.params, jm.params.to_z(mfit.theta), mfit.cov_z, _LAPLACE_DRAWS, rng)
+        else:
+            pm = MultiMassModel(prior_model, jm.deltas).model
+            x, info = sample_multi_mass(runs, deltas, pm, fit=mfit, seed=inp.seed, settings=inp.settings)
+            if not info["converged"]:
+                warns.append({"code": "not_converged", "model": model.label,
+                              "short": "the joint posterior did not meet the stopping rule",
+                              "message": "the joint posterior did not meet the stopping rule: "
+                                         f"{info['message']}"})
+        out = []
+        for xx in (x, mfit.theta[None, :]):
+            theta = jm.thetas(xx)[0]
+            out.append(_complete(free_air(model, theta), model, theta, inp, mms=xx[:, 0]))
+        return out[0], out[1], float(np.sqrt(np.mean(np.square(mfit.rms_rel_residual))))
+    # added volume
+    bound, theta, point, rms_b = single(inp.meas, "free air")
+    box_meas, vb = inp.box
+    bbound, theta_c, point_c, rms_c = single(box_meas, "box")
+    n = min(len(theta), len(theta_c))
+    if mode != "point":
+        theta = theta[rng.permutation(len(theta))[:n]]
+        theta_c = theta_c[rng.permutation(len(theta_c))[:n]]
+    rms = float(np.sqrt((rms_b**2 + rms_c**2) / 2))
+    return (_volume(bound, bbound, theta, theta_c, vb, inp, warns, model),
+            _volume(bound, bbound, point, point_c, vb, inp, [], model), rms)
+
+
+def _volume(bound, bbound, theta, theta_c, vb, inp, warns, model):
+    """T/S of the added-volume method from paired free-air and box draws."""
+    ts = free_air(bound, theta)
+    tc = free_air(bbound, theta_c)
+    vas = vb * (tc["fs"] * tc["Qes"] / (ts["fs"] * ts["Qes"]) - 1.0)
+    if np.median(vas) <= 0:
+        warns.append({"code": "box_no_stiffer", "model": model.label,
+                      "short": "box resonance not above free air's: Vas not positive",
+                      "message": "the box recording's resonance is not above free air's: Vas from the "
+                                 "added-volume formula is not positive (is the box sealed, is Vb right?)"})
+    if inp.sd is not None:
+        cms = vas / (inp.rho * inp.c**2 * inp.sd**2)
+        mms = 1.0 / ((2 * math.pi * ts["fs"]) ** 2 * cms)
+        ts = with_sd(with_mass(ts, bound, theta, mms), inp.sd, inp.rho, inp.c)
+    else:
+        ts = {**ts, "Vas": vas}
+    return ts
+
+
+def _spread_models(main: Model, models_for_spread) -> list[Model]:
+    if models_for_spread is not None:
+        cands = [_model(m) for m in models_for_spread]
+    else:
+        suffix = "".join(f"+{t.id}" for t in main.augmentations)
+        cands = [parse_model_spec(b + suffix) for b in DEFAULT_SPREAD_BASES]
+    out, seen = [], {main.spec}
+    for m in cands:
+        if m.spec not in seen:
+            seen.add(m.spec)
+            out.append(m)
+    return out
+
+
+def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple | None = None,
+                 sd: float | None = None, re=None, mms: float | None = None, bl: float | None = None,
+                 air_density: float = 1.18, sound_speed: float = 343.0, fast: bool = False, seed: int = 0,
+                 models_for_spread: Sequence | None = None, f_range_hz: tuple | None = None,
+                 read_options: dict | None = None, settings=None) -> ThieleSmall:
+    """Thiele–Small parameters with 90 % intervals and model spread (module docstring).
+
+    Parameters
+    ----------
+    data : the free-air recording (a :class:`~bayes_emt.measurement.Measurement` or a file path).
+    model : model spec or :class:`~bayes_emt.models.Model` (default ``"UD"``).
+    loaded : ``[(recording, delta_m_kg), ...]``: added-mass recordings (method ``added_mass``).
+    box : ``(recording, volume_m3)``: a sealed test box of known net volume (``added_volume``).
+    sd : effective cone area Sd [m²] (Vas, η0, SPL; needed by ``added_volume`` for Cms, Mms, Bl).
+    re : ohmmeter reading of the DC resistance: ohms (1 % sd) or ``(ohms, sd)``.
+    mms, bl : a known moving mass [kg] or force factor [T m] (free air only; not both).
+    air_density, sound_speed : ρ [kg/m³] and c [m/s].
+    fast : intervals from the fit's Gaussian approximation instead of the posterior.
+    seed : seed of the sampler (and of the fast draws).
+    models_for_spread : candidate model specs for ``model_spread`` (default II, III, UD with the
+        main model's physics terms; ``[]``: none).
+    f_range_hz : ``(f_min, f_max)`` [Hz] band used from every recording (``None``: all).
+    read_options : keyword arguments of :func:`~bayes_emt.io.read_measurement` for file paths.
+    settings : :class:`~bayes_emt.inference.sampling.SamplerSettings` (default the T/S budget).
+
+    Returns
+    -------
+    ThieleSmall
+    """
+    loaded = list(loaded)
+    if mms is not None and bl is not None:
+        raise ValueError("give a known mms or a known bl, not both")
+    if loaded and box is not None:
+        raise ValueError("give added masses (loaded) or a test box (box), not both: one method at a time")
+    if (loaded or box is not None) and (mms is not None or bl is not None):
+        raise ValueError("a known mms or bl is for free air only; added mass or volume measure them")
+    for name, v in (("sd", sd), ("mms", mms), ("bl", bl), ("air_density", air_density),
+                    ("sound_speed", sound_speed)):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be a positive number, got {v!r}")
+    re_t = parse_re(re)
+    main = _model(model)
+    meas = _measurement(data, "data", read_options, f_range_hz)
+    lm = []
+    for i, item in enumerate(loaded):
+        try:
+            rec, dm = item
+        except (TypeError, ValueError):
+            raise ValueError(f"loaded[{i}] must be (recording, delta_m_kg), got {item!r}") from None
+        if not (math.isfinite(float(dm)) and float(dm) != 0):
+            raise ValueError(f"loaded[{i}]: the added mass must be a non-zero number of kg, got {dm!r}")
+        lm.append((_measurement(rec, f"loaded[{i}]", read_options, f_range_hz), float(dm)))
+    bx = None
+    if box is not None:
+        try:
+            rec, vb = box
+        except (TypeError, ValueError):
+            raise ValueError(f"box must be (recording, volume_m3), got {box!r}") from None
+        if not (math.isfinite(float(vb)) and float(vb) > 0):
+            raise ValueError(f"box volume must be a positive number of m^3, got {vb!r}")
+        bx = (_measurement(rec, "box", read_options, f_range_hz), float(vb))
+    method = "added_mass" if lm else "added_volume" if bx else "free_air"
+    inp = _Inputs(meas, lm, bx, sd, re_t, mms, bl, float(air_density), float(sound_speed), int(seed),
+                  settings if settings is not None else _ts_sampler())
+    warns: list[dict] = []
+    mode = "laplace" if fast else "posterior"
+    draws, point_main, rms_main = _estimate(main, method, inp, mode, warns)
+
+    # model spread: point values of every adequate candidate (and the main model)
+    spread_vals = [(main.label, rms_main, point_main)]
+    for cand in _spread_models(main, models_for_spread):
+        try:
+            _, pv, rms = _estimate(cand, method, inp, "point", [])
+        except Exception as exc:  # noqa: BLE001 - a candidate that cannot be fitted is reported, not fatal
+            warns.append({"code": "spread_model_failed", "model": cand.label,
+                          "short": "could not be fitted for the model spread",
+                          "message": f"candidate {cand.label} for the model spread could not be "
+                                     f"fitted: {exc}"})
+            continue
+        spread_vals.append((cand.label, rms, pv))
+    best = min(r for _, r, _ in spread_vals)
+    adequate = [(lab, pv) for lab, r, pv in spread_vals if r <= ADEQUATE_RMS_FACTOR * best]
+
+    params = {}
+    for name in NAMES:
+        if name not in draws:
+            continue
+        v = np.asarray(draws[name], float)
+        v = v[np.isfinite(v)]
+        if v.size == 0:
+            continue
+        lo, med, hi = np.quantile(v, [0.05, 0.5, 0.95])
+        vals = [float(np.asarray(pv[name]).ravel()[0]) for _, pv in adequate if name in pv]
+        vals = [x for x in vals if math.isfinite(x)]
+        params[name] = {"value": float(med), "ci90": [float(lo), float(hi)], "unit": UNITS[name],
+                        "model_spread": [min(vals), max(vals)] if len(vals) > 1 else None}
+    if fast:
+        warns.append({"code": "fast_intervals", "short": "intervals from the fit's covariance (--fast), not "
+                      "the posterior", "message": "intervals from the least-squares fit's Gaussian "
+                      "approximation (its covariance, delta method by 4000 draws), not from the posterior: "
+                      "they can be too narrow where the posterior is skewed or the fit is poor"})
+    if "lambda_creep" in main.names:
+        warns.append({"code": "creep_convention", "short": "fs, Qms by the LOG-creep convention (fs at zero "
+                      "mechanical reactance); see the JSON",
+                      "message": "suspension creep: fs is where the mechanical reactance vanishes and Qms "
+                      "includes the creep loss at fs (Knudsen & Jensen LOG model, as Klippel LPM and "
+                      "Speakerbench report them); zeta and omega0 stay model parameters; "
+                      "Qms_viscous is the viscous part alone"})
+    inputs = {"data": meas.source, "f_range_hz": [float(meas.f_hz[0]), float(meas.f_hz[-1])],
+              "loaded": [{"data": m.source, "delta_m_kg": d} for m, d in lm],
+              "box": None if bx is None else {"data": bx[0].source, "volume_m3": bx[1]},
+              "sd_m2": sd, "re": None if re_t is None else {"ohm": re_t[0], "sd_ohm": re_t[1]},
+              "mms_kg": mms, "bl_tm": bl, "air_density_kg_m3": inp.rho, "sound_speed_m_s": inp.c,
+              "uncertainty": "laplace" if fast else "posterior", "seed": int(seed),
+              "model_spread": {"candidates": [lab for lab, _, _ in spread_vals],
+                               "adequate": [lab for lab, _ in adequate],
+                               "rule": f"rms relative residual within {ADEQUATE_RMS_FACTOR}x the best "
+                                       "candidate's",
+                               "weighting": "unweighted range (no evidence computed)"}}
+    return ThieleSmall(model=main.spec, method=method, parameters=params, inputs=inputs,
+                       warnings=tuple(_dedupe(warns)))
+
+
+def _dedupe(warns: list[dict]) -> list[dict]:
+    """One record per (code, message) with the models it concerns merged into ``models``."""
+    out: dict[tuple, dict] = {}
+    for w in warns:
+        key = (w["code"], w["message"])
+        if key in out:
+            if w.get("model") and w["model"] not in out[key]["models"]:
+                out[key]["models"].append(w["model"])
+            continue
+        rec = {k: v for k, v in w.items() if k != "model"}
+        rec["models"] = [w["model"]] if w.get("model") else []
+        out[key] = rec
+    return list(out.values())
+
+
+def from_posterior(post, *, sd: float | None = None, air_density: float = 1.18,
+                   sound_speed: float = 343.0) -> ThieleSmall:
+    """The T/S set of an existing posterior (``sample``'s): a single recording gives the free-air set;
+    an added-mass pair (:class:`~bayes_emt.added_mass.posterior.AddedMassPosterior`) also Bl, Mms,
+    Cms, Kms, Rms and, with ``sd``, Vas, η0 and SPL. No model spread (one model)."""
+    model = post.model
+    theta = post.theta()
+    if hasattr(post, "thetas"):  # added-mass pair: m is the first joint parameter
+        mms = post.flat()[:, 0]
+        ts = with_mass(free_air(model, theta), model, theta, mms)
+        method = "added_mass"
+    else:
+        ts, method = free_air(model, theta), "free_air"
+    if sd is not None and "Cms" in ts:
+        ts = with_sd(ts, sd, air_density, sound_speed)
+    params = {}
+    for name in NAMES:
+        if name in ts:
+            v = np.asarray(ts[name], float)
+            v = v[np.isfinite(v)]
+            if v.size:
+                lo, med, hi = np.quantile(v, [0.05, 0.5, 0.95])
+                params[name] = {"value": float(med), "ci90": [float(lo), float(hi)], "unit": UNITS[name],
+                                "model_spread": None}
+    warns = [] if post.converged else [{"code": "not_converged", "message": "the posterior did not meet the "
+                                        "stopping rule: its T/S intervals are not to be trusted"}]
+    return ThieleSmall(model=model.spec, method=method, parameters=params,
+                       inputs={"uncertainty": "posterior", "sd_m2": sd, "air_density_kg_m3": air_density,
+                               "sound_speed_m_s": sound_speed}, warnings=tuple(warns))

@@ -1,0 +1,140 @@
+"""The frozen T/S result: values with 90 % intervals and model spread, JSON in and out, a
+plain-text table in the field's units."""
+
+from __future__ import annotations
+
+import html
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .._atomic import atomic_write_text
+from .._json import strict_json
+from .._warnlines import group_warnings
+from ..errors import DataFormatError
+from .relations import DISPLAY, NAMES, UNITS
+
+__all__ = ["ThieleSmall", "read_thiele_small", "METHODS"]
+
+METHODS = ("free_air", "added_mass", "added_volume")
+
+
+def _fmt(v: float) -> str:
+    if v is None or not math.isfinite(v):
+        return "-"
+    a = abs(v)
+    if a == 0:
+        return "0"
+    if a >= 1000:
+        return f"{v:.0f}"
+    return f"{v:.4g}" if a >= 0.01 else f"{v:.3g}"
+
+
+@dataclass(frozen=True)
+class ThieleSmall:
+    """Thiele–Small parameters of one driver (:func:`~bayes_emt.thiele_small.thiele_small`).
+
+    Attributes
+    ----------
+    model : the model spec the values come from.
+    method : ``"free_air"``, ``"added_mass"`` or ``"added_volume"``.
+    parameters : ``{name: {"value", "ci90": [lo, hi], "unit", "model_spread": [lo, hi] | None}}``
+        in SI (names and units: :data:`~bayes_emt.thiele_small.relations.UNITS`); ``value`` is the
+        posterior median (``fast``: the median of the fit's Gaussian approximation).
+    inputs : what was given (files, masses, box volume, Sd, ohmmeter reading, air) and how the
+        intervals were obtained (``uncertainty``: ``"posterior"`` or ``"laplace"``).
+    warnings : ``{"code", "message", "model"?, "band_hz"?}`` records.
+    """
+
+    model: str
+    method: str
+    parameters: dict
+    inputs: dict = field(default_factory=dict)
+    warnings: tuple = ()
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {self.method!r}")
+
+    def __getitem__(self, name: str) -> float:
+        return self.parameters[name]["value"]
+
+    def __repr__(self) -> str:
+        keys = [k for k in ("fs", "Qts", "Vas") if k in self.parameters]
+        vals = ", ".join(f"{k}={self.parameters[k]['value']:.4g} {self.parameters[k]['unit']}" for k in keys)
+        return f"ThieleSmall({self.method}, {self.model}: {vals}, {len(self.parameters)} parameters)"
+
+    def rows(self) -> list[tuple[str, str, str, str, str]]:
+        """``(name, value, 90 % interval, model spread, unit)`` in display units."""
+        out = []
+        for name in NAMES:
+            p = self.parameters.get(name)
+            if p is None:
+                continue
+            unit, f = DISPLAY[name]
+            lo, hi = p["ci90"]
+            sp = p.get("model_spread")
+            spread = "-" if sp is None else f"{_fmt(sp[0] * f)} .. {_fmt(sp[1] * f)}"
+            out.append((name, _fmt(p["value"] * f), f"{_fmt(lo * f)} .. {_fmt(hi * f)}", spread, unit))
+        return out
+
+    def summary(self) -> str:
+        """A plain-text table (Hz, Ω, mH, g, mm/N, L, dB) with a header line and the warnings'
+        codes (one line each)."""
+        rows = self.rows()
+        head = ("parameter", "value", "90 % interval", "model spread", "unit")
+        widths = [max(len(str(r[i])) for r in [head, *rows]) for i in range(5)]
+        line = "  ".join(f"{{:<{w}}}" for w in widths)
+        how = self.inputs.get("uncertainty", "posterior")
+        text = [f"Thiele-Small parameters ({self.method.replace('_', ' ')}, model {self.model}, "
+                f"intervals from the {how})", line.format(*head), "  ".join("-" * w for w in widths)]
+        text += [line.format(*r) for r in rows]
+        for g in group_warnings(self.warnings):  # one line each; the full text is in to_json()
+            who = f" ({', '.join(g['sources'])})" if g["sources"] else ""
+            text.append(f"warning [{g['code']}]{g['band']}: {g['short']}{who}")
+        return "\n".join(text)
+
+    def _repr_html_(self) -> str:
+        cells = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>"
+                        for r in self.rows())
+        warn = "".join(f"<li>{html.escape(w['code'])}: {html.escape(w['message'])}</li>"
+                       for w in self.warnings)
+        return (f"<p>Thiele–Small parameters ({html.escape(self.method)}, "
+                f"model {html.escape(self.model)})</p>"
+                "<table><tr><th>parameter</th><th>value</th><th>90 % interval</th><th>model spread</th>"
+                f"<th>unit</th></tr>{cells}</table>" + (f"<ul>{warn}</ul>" if warn else ""))
+
+    def to_json_dict(self) -> dict:
+        """``{"model", "method", "parameters", "inputs", "warnings"}`` (SI, strict JSON)."""
+        return strict_json({"model": self.model, "method": self.method, "parameters": self.parameters,
+                            "inputs": self.inputs, "warnings": [dict(w) for w in self.warnings]})
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_json_dict(), indent=2, allow_nan=False)
+
+    def save(self, path: str | Path) -> Path:
+        """Write :meth:`to_json` atomically to ``path``."""
+        path = Path(path)
+        atomic_write_text(path, self.to_json() + "\n")
+        return path
+
+
+def read_thiele_small(source: str | Path | dict) -> ThieleSmall:
+    """A :class:`ThieleSmall` from its JSON file (or the dict of :meth:`ThieleSmall.to_json_dict`)."""
+    where = "<dict>"
+    if not isinstance(source, dict):
+        where = str(source)
+        try:
+            source = json.loads(Path(source).read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            raise DataFormatError(f"{where}: not a readable T/S JSON file ({exc})") from None
+    missing = [k for k in ("model", "method", "parameters") if k not in source]
+    if missing:
+        raise DataFormatError(f"{where}: not a T/S record, missing {missing}")
+    for name, p in source["parameters"].items():
+        if name not in UNITS or not {"value", "ci90", "unit"} <= set(p):
+            raise DataFormatError(f"{where}: parameter {name!r} is not a T/S entry with value, ci90, unit")
+    return ThieleSmall(model=str(source["model"]), method=str(source["method"]),
+                       parameters=dict(source["parameters"]), inputs=dict(source.get("inputs", {})),
+                       warnings=tuple(source.get("warnings", ())))
