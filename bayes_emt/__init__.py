@@ -18,6 +18,7 @@ from .api import (
     read_posterior,
     robust_shunt,
     sample,
+    ts,
 )
 from .discovery.diagnose import Diagnosis
 from .errors import (
@@ -39,7 +40,7 @@ from .shunt import ShuntDesign
 __version__ = "0.1.0"
 
 __all__ = [
-    "read", "fit", "sample", "compare", "robust_shunt", "design_shunt", "diagnose", "read_posterior", "load",
+    "read", "fit", "sample", "compare", "robust_shunt", "ts", "design_shunt", "diagnose", "read_posterior", "load",
     "as_model", "as_measurement", "load_paper_bench", "load_concealed_bench",
     "Measurement", "FitResult", "Posterior", "Comparison", "Diagnosis", "ShuntDesign",
     "BayesEMTError", "ConvergenceWarning", "DataFormatError", "FitError", "IdentifiabilityWarning",

@@ -39,9 +39,11 @@ from .models import Model, build_model
 from .shunt import RobustShuntResult, ShuntDesign, design_rc_shunt, read_robust_shunt
 from .shunt import robust_shunt as _robust_shunt
 from .shunt.design import read_shunt_design
+from .thiele_small import ThieleSmall, thiele_small
+from .thiele_small.result import read_thiele_small
 
 __all__ = ["read", "fit", "sample", "compare", "robust_shunt", "design_shunt", "diagnose", "read_posterior",
-           "load", "as_model", "as_measurement", "load_paper_bench", "load_concealed_bench"]
+           "ts", "load", "as_model", "as_measurement", "load_paper_bench", "load_concealed_bench"]
 
 
 def as_model(model: Model | str | FitResult, *, rings: int | None = None) -> Model:
@@ -166,6 +168,16 @@ def robust_shunt(posteriors: Posterior | Sequence[Posterior], *, weights: str | 
                          **options)
 
 
+def ts(data: Measurement | str | Path, model: Model | str = "UD", **options) -> ThieleSmall:
+    """Thiele–Small parameters with 90 % intervals, units and their spread across adequate coil
+    models: free air alone (fs, Re, Le, Qms, Qes, Qts), with ``loaded=[(recording, delta_m_kg), ...]``
+    one joint posterior of every added-mass recording (Bl, Mms, Cms, Kms, Rms), with
+    ``box=(recording, volume_m3)`` the added-volume method, with ``sd`` [m²] Vas, η0, SPL and EBP;
+    ``re=(ohm, sd)`` an ohmmeter reading of the DC resistance
+    (:func:`~bayes_emt.thiele_small.thiele_small` for every option)."""
+    return thiele_small(data, model, **options)
+
+
 def design_shunt(fit_or_model: FitResult | Model, theta=None, **options) -> ShuntDesign:
     """The H∞-optimal RC shunt (:func:`~bayes_emt.shunt.design_rc_shunt`) for a fit, or for a model
     and its parameter vector."""
@@ -200,6 +212,8 @@ def load(path: str | Path):
     except (OSError, UnicodeDecodeError, json.JSONDecodeError):
         return read_record(p)  # its one-line error names the file
     if isinstance(rec, dict) and "kind" not in rec:
+        if {"method", "parameters", "inputs"} <= set(rec):
+            return read_thiele_small(rec)
         if {"nominal", "robust"} <= set(rec):
             return read_robust_shunt(p)
         if {"Rs", "Cs"} <= set(rec):

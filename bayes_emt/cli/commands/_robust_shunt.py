@@ -71,6 +71,14 @@ def _fmt_att(s, spec: str = ".3f") -> str:
     return f"{f(s['median'])} ({f(s['q05'])} .. {f(s['q95'])})"
 
 
+def _tolerance(args) -> float | None:
+    """The ohmmeter tolerance [ohm]: ``--ohmmeter-tolerance``, or the 90 % half-width of ``--re``."""
+    tol = getattr(args, "ohmmeter_tolerance", None)
+    if getattr(args, "re", None) is not None:
+        tol = max(tol or 0.0, 1.645 * args.re[1])
+    return tol
+
+
 def run_posterior(args, sampled) -> int:
     from ...io.paramfile import read_param_file, write_json
     from ...shunt.from_posterior import robust_shunt
@@ -106,7 +114,7 @@ def run_posterior(args, sampled) -> int:
     result = robust_shunt(posts, weights="evidence" if lzs else "equal", log_z=lzs, n_draws=args.draws,
                           seed=args.seed, risk=args.risk, alpha=args.alpha, epsilon=args.epsilon,
                           confidence=args.confidence, nominal=nominal, sampled=sampled,
-                          ohmmeter_tolerance=getattr(args, "ohmmeter_tolerance", None),
+                          ohmmeter_tolerance=_tolerance(args),
                           sources=list(args.posterior), boundary_points=24 if args.plot else 0,
                           progress=not getattr(args, "quiet", False))
     res = result.detail

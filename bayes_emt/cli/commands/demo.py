@@ -28,7 +28,7 @@ import warnings
 from pathlib import Path
 
 from ..paths import check_outputs
-from ._common import add_output_args, add_parser, int_at_least, print_table, print_warnings, seed
+from ._common import add_output_args, add_parser, int_at_least, print_table, print_warning_lines, seed
 
 EXAMPLES = """\
 bayes-emt demo --quick  (about 2 min: fewer models, short chains; the report says what it cut)
@@ -234,10 +234,7 @@ def _fits(d: _Demo, meas, cfg, truth) -> dict:
     if not d.args.quiet:
         print_table(rows, ("model", "rms rel. resid. [%]", "zeta [1]", "omega0 [rad/s]",
                            "phi [N/(A kg^.5)]", "R0 [ohm]", "time [s]"))
-        for fit in fits.values():
-            if fit.warnings:
-                print(f"{fit.model.label}:")
-                print_warnings(fit.warnings, indent="  ")
+        print_warning_lines([{**w, "model": f.model.label} for f in fits.values() for w in f.warnings])
     write_json(d.out / "fits.json", {k: f.to_json_dict() for k, f in fits.items()})
     for k, f in fits.items():
         f.save(d.out / f"fit_{k}.json")

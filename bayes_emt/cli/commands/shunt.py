@@ -20,6 +20,7 @@ from ..paths import check_outputs
 from ._common import (
     add_output_args,
     add_parser,
+    add_re_option,
     check_model_matches,
     detail,
     finite_float,
@@ -88,6 +89,7 @@ def register(sub) -> None:
                    help="the shunt realisation's bandwidth [rad/s]: the stability constraint leaves out the "
                         "ideal loop above it (needed with a capacitance across the terminals); default: "
                         "ideal loop")
+    add_re_option(p)
     add_output_args(p)
     p.set_defaults(func=run)
 
@@ -130,8 +132,17 @@ def run(args) -> int:
     check_model_matches(model, args.model, args.params)
     plots = [f"shunt_{model.spec}_{name}.png" for name in ("receptance", "attenuation_map")]
     check_outputs([("--json", args.json)], inputs, folders=[("--plot", args.plot, plots)])
+    ohmmeter = args.ohmmeter_tolerance
+    if args.re is not None:  # an ohmmeter reading: its 90 % half-width is the tolerance the margin must beat
+        value, sd = args.re
+        ohmmeter = max(ohmmeter or 0.0, 1.645 * sd)
+        r0 = float(model.as_dict(theta)["R0"])
+        if abs(r0 - value) > 3 * sd:
+            print(f"warning [r0_disagrees_with_ohmmeter]: R0 = {r0:.5g} ohm in {args.params} is "
+                  f"{(r0 - value) / sd:+.1f} SD from the ohmmeter's {value:.5g} ohm: refit with --re before "
+                  "trusting this shunt's stability margin")
     r0_unc = r0_uncertainty_of_files(args.params, others=[args.evaluate_on] if args.evaluate_on else (),
-                                     ohmmeter=args.ohmmeter_tolerance)
+                                     ohmmeter=ohmmeter)
     d = design_rc_shunt(model, theta, bandwidth=args.bandwidth, r0_uncertainty=r0_unc)
     out = d.to_json_dict()
     out["params"] = str(args.params)
