@@ -40,8 +40,8 @@ from .shunt import ShuntDesign
 __version__ = "0.1.0"
 
 __all__ = [
-    "read", "fit", "sample", "compare", "robust_shunt", "ts", "design_shunt", "diagnose", "read_posterior", "load",
-    "as_model", "as_measurement", "load_paper_bench", "load_concealed_bench",
+    "read", "fit", "sample", "compare", "robust_shunt", "ts", "design_shunt", "diagnose", "read_posterior",
+    "load", "as_model", "as_measurement", "load_paper_bench", "load_concealed_bench",
     "Measurement", "FitResult", "Posterior", "Comparison", "Diagnosis", "ShuntDesign",
     "BayesEMTError", "ConvergenceWarning", "DataFormatError", "FitError", "IdentifiabilityWarning",
     "MODEL_NAMES", "Model", "build_model",
