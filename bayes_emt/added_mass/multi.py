@@ -36,8 +36,14 @@ from ..inference.likelihood import (
 )
 from ..measurement import Measurement
 from ..models import Model
-from ..params import ParamSet, default_spec
-from .fit import PHYSICAL_NAMES, _rel_residuals, mechanics_from_physical, physical_from_two_fits
+from ..params import ParamSet
+from .fit import (
+    PHYSICAL_NAMES,
+    PHYSICAL_PARAMS,
+    _rel_residuals,
+    mechanics_from_physical,
+    physical_from_two_fits,
+)
 from .posterior import _run_noise
 
 __all__ = ["MultiMassModel", "MultiMassFit", "MultiMassLikelihood", "fit_multi_mass", "sample_multi_mass"]
@@ -66,7 +72,7 @@ class MultiMassModel:
             raise ValueError(f"model {self.model.label} lacks {missing}; an added-mass fit needs {_MECH}")
         shared = tuple(n for n in self.model.names if n not in _MECH)
         object.__setattr__(self, "shared", shared)
-        phys = ParamSet([default_spec(n) for n in PHYSICAL_NAMES])
+        phys = ParamSet([PHYSICAL_PARAMS[n] for n in PHYSICAL_NAMES])
         object.__setattr__(self, "params", phys + ParamSet([self.model.params[n] for n in shared]))
 
     @property
