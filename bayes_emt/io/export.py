@@ -159,3 +159,20 @@ def check_finite(values: Mapping[str, float], where: str) -> None:
     bad = [k for k, v in values.items() if not math.isfinite(v)]
     if bad:
         raise DataFormatError(f"{where}: non-finite values for {bad}")
+
+
+def grid_hz(text: str) -> np.ndarray:
+    """``"FMIN:FMAX:N"`` → N log-spaced frequencies [Hz] from FMIN to FMAX (``--grid``)."""
+    try:
+        lo, hi, n = text.split(":")
+        lo, hi, n = float(lo), float(hi), int(n)
+    except ValueError:
+        raise ValueError(f"--grid {text}: expected FMIN:FMAX:N, e.g. 10:20000:500") from None
+    if not (0 < lo < hi and math.isfinite(hi) and n >= 2):
+        raise ValueError(f"--grid {text}: need 0 < FMIN < FMAX and N >= 2")
+    return np.geomspace(lo, hi, n)
+
+
+def fitted_impedance(model, theta, f_hz) -> np.ndarray:
+    """The model's terminal impedance [Ω] at ``f_hz`` [Hz] (what ``export --zma/--frd`` writes)."""
+    return model.impedance(2 * math.pi * np.asarray(f_hz, float), theta)

@@ -10,7 +10,6 @@ sources: :mod:`bayes_emt.io.export`.
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 from ..paths import check_outputs
@@ -38,22 +37,9 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _grid(text: str):
-    import numpy as np
-
-    try:
-        lo, hi, n = text.split(":")
-        lo, hi, n = float(lo), float(hi), int(n)
-    except ValueError:
-        raise ValueError(f"--grid {text}: expected FMIN:FMAX:N, e.g. 10:20000:500") from None
-    if not (0 < lo < hi and math.isfinite(hi) and n >= 2):
-        raise ValueError(f"--grid {text}: need 0 < FMIN < FMAX and N >= 2")
-    return np.geomspace(lo, hi, n)
-
-
 def run(args) -> int:
     from ...errors import DataFormatError
-    from ...io.export import write_frd, write_hornresp, write_wdr, write_zma
+    from ...io.export import fitted_impedance, grid_hz, write_frd, write_hornresp, write_wdr, write_zma
 
     outs = [("--zma", args.zma), ("--frd", args.frd), ("--wdr", args.wdr), ("--hornresp", args.hornresp)]
     if not any(o for _, o in outs):
@@ -76,8 +62,8 @@ def run(args) -> int:
         model, theta = read_param_file(args.source)
         if (args.data is None) == (args.grid is None):
             raise ValueError("give the frequency grid: --data FILE (its grid) or --grid FMIN:FMAX:N")
-        f_hz = read_measurement(args.data).f_hz if args.data else _grid(args.grid)
-        Z = model.impedance(2 * math.pi * f_hz, theta)
+        f_hz = read_measurement(args.data).f_hz if args.data else grid_hz(args.grid)
+        Z = fitted_impedance(model, theta, f_hz)
         comment = f"bayes_emt: model {model.spec} fitted impedance ({args.source})"
         for path, fn in ((args.zma, write_zma), (args.frd, write_frd)):
             if path:
