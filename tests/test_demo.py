@@ -1,7 +1,8 @@
 """The main job, ``bayes-emt demo --quick``, end to end on the bundled data: fits, evidence,
 posterior, shunts, the diagnosis' recording, and the report, checked in a headless Chromium.
 The chains are far too short to converge (a few hundred steps; NL(5) needs thousands): the demo must
-say so and exit 1. Convergence itself is the slow test
+say so, as a warning on top of the report, and still exit 0 because the chain completed (issue 24).
+Convergence itself is the slow test
 ``test_posterior.py::test_paper_bench_nl5_converges_with_ess_1000``."""
 
 import json
@@ -35,7 +36,7 @@ def demo(tmp_path_factory):
 
 def test_quick_demo_runs_the_chain_and_says_what_it_cut(demo):
     rc, out, text = demo
-    assert rc == 1 and "NOT CONVERGED" in text and "exit code 1" in text
+    assert rc == 0 and "NOT CONVERGED" in text and "exit code 1" not in text
     expected = {"run.json", "fits.json", "comparison.json", "evidence.png", "posterior.nc", "posterior.json",
                 "posterior_bode.png", "posterior_corner.png", "residuals.png", "shunts.json",
                 "robust_shunt.json", "shunt_robust_gain.png", "report.html"}
@@ -58,12 +59,13 @@ def test_quick_demo_runs_the_chain_and_says_what_it_cut(demo):
     assert all(isinstance(f["warnings"], list) for f in fits.values())
     assert nl["warnings"] == [] and "model_inadequate" in [w["code"] for w in fits["I"]["warnings"]]
     assert [w["code"] for w in post["warnings"]] == ["not_converged"]
-    assert "WARNING [model_inadequate]" in text
+    assert "warning [model_inadequate]" in text  # one line per distinct warning (issue 22)
     # SPEC §5: the NL design attenuates by -24.7 dB (here from the fitted, not the printed, parameters)
     shunts = json.loads((out / "shunts.json").read_text())
     assert shunts["NL"]["evaluated_on_NL"]["attenuation_db"] == pytest.approx(-24.7, abs=0.1)
     run = json.loads((out / "run.json").read_text())
     assert any("III, UD and UL are left out" in c for c in run["cut"])
+    assert any("did not converge" in w and "--quick" in w for w in run["warnings"])
     steps = {s["name"]: s for s in run["steps"]}
     assert steps["hankel"]["status"] == "skipped"
     assert steps["robust_shunt"]["status"] == "ran", steps["robust_shunt"]  # issue 12 is on main
@@ -125,52 +127,46 @@ def test_demo_report_states_the_missing_features_and_renders_in_chromium(demo, t
 
 
 def test_a_failing_feature_step_is_recorded_and_the_rest_of_the_demo_goes_on(tmp_path, monkeypatch):
-    """The robust shunt (issue 12) is called through ``bayes-emt shunt --posterior``; when it fails
-    (here: made to raise as a mis-merged build would), the step is recorded as failed with a
-    one-line reason and a warning, never a traceback, and the report says so."""
+    """The robust shunt is a verb call (``be.robust_shunt``); when it fails (here: made to raise as a
+    mis-merged build would), the step is recorded as failed with a one-line reason and a warning,
+    never a traceback, and the report says so."""
     from types import SimpleNamespace
 
-    from bayes_emt.cli.commands import demo, shunt
+    from bayes_emt import api
+    from bayes_emt.cli.commands import demo
     from bayes_emt.report import render_report
 
-    def broken(args):
+    def broken(*args, **kwargs):
         raise AttributeError("'Model' object has no attribute 'name'\nsecond line")
 
-    def register(sub):  # the issue-12 command line, as the robust-shunt branch defines it
-        p = sub.add_parser("shunt")
-        for opt in ("--posterior", "--params", "--draws", "--seed", "--json", "--plot"):
-            p.add_argument(opt)
-        p.set_defaults(func=broken)
-
-    monkeypatch.setattr(demo, "_available", lambda module: True)
-    monkeypatch.setattr(shunt, "register", register)
+    monkeypatch.setattr(api, "robust_shunt", broken)
     d = demo._Demo(SimpleNamespace(quiet=True, verbose=False, out=str(tmp_path), seed=0))
-    demo._robust(d, tmp_path / "posterior.nc", "NL", demo.QUICK)
+    post = SimpleNamespace(model=SimpleNamespace(label="NL(5)"))
+    demo._robust(d, post, None, demo.QUICK)
     (step,) = d.steps
     assert step["name"] == "robust_shunt" and step["status"] == "failed"
-    assert step["detail"].endswith("AttributeError: 'Model' object has no attribute 'name'")
-    assert d.warnings == ["robust shunt failed: AttributeError: 'Model' object has no attribute 'name'"]
+    assert step["detail"] == "AttributeError: 'Model' object has no attribute 'name'"
+    assert d.warnings == ["robust_shunt failed: AttributeError: 'Model' object has no attribute 'name'"]
     (tmp_path / "run.json").write_text(json.dumps({"steps": d.steps, "warnings": d.warnings}))
     html = render_report(tmp_path)
     assert '<section id="sec-robust" class="not-run">' in html
-    assert html_escape("robust shunt failed: AttributeError: 'Model' object has no attribute 'name'") in html
+    assert html_escape("robust_shunt failed: AttributeError: 'Model' object has no attribute 'name'") in html
 
 
-def test_a_command_without_the_feature_options_is_a_failed_step_not_an_exit(tmp_path, monkeypatch):
-    from types import SimpleNamespace
+def test_the_demo_calls_verbs_not_other_commands():
+    # issue 21: the demo is a thin layer over the public verbs; it runs no other command's argparse
+    import ast
+    from pathlib import Path
 
-    from bayes_emt.cli.commands import demo, shunt
+    from bayes_emt.cli.commands import demo
 
-    def register(sub):  # a shunt command from before issue 12: no --posterior
-        p = sub.add_parser("shunt")
-        p.add_argument("--params")
-        p.set_defaults(func=lambda args: 0)
-
-    monkeypatch.setattr(demo, "_available", lambda module: True)
-    monkeypatch.setattr(shunt, "register", register)
-    d = demo._Demo(SimpleNamespace(quiet=True, verbose=False, out=str(tmp_path), seed=0))
-    demo._robust(d, tmp_path / "posterior.nc", "NL", demo.QUICK)
-    assert d.steps[0]["status"] == "failed" and "does not take these options" in d.steps[0]["detail"]
+    tree = ast.parse(Path(demo.__file__).read_text())
+    froms = [n for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
+    # from the commands package only the shared helpers (_common); nothing from another command
+    assert {n.module for n in froms if n.level == 1} == {"_common"}
+    assert "argparse" not in {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    names = {a.name for n in froms for a in n.names}
+    assert "api" in names
 
 
 @pytest.mark.slow
