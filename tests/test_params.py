@@ -116,3 +116,27 @@ def test_coil_resistance_is_not_a_ring():
     assert param_spec("P10").description == "permeance of core ring 10"
     with pytest.raises(KeyError):
         param_spec("P0")
+
+
+def test_clip_inside_is_one_rule_in_both_spaces():
+    # one margin (CLIP_MARGIN of the sampling-space width) for every "move a start inside the prior"
+    from bayes_emt.params import CLIP_MARGIN, clip_inside
+
+    ps = ParamSet([ParamSpec("a", "1", "a", LogUniform(1e-3, 1e3)),
+                   ParamSpec("b", "1", "b", Uniform(-1.0, 1.0)), ParamSpec("c", "1", "c", Normal(0.0, 1.0))])
+    lo, hi = ps.bounds_z()
+    z = np.array([[-100.0, -5.0, -1e9], [100.0, 5.0, 1e9], [0.1, 0.2, 0.3]])
+    out = ps.clip_inside(z)
+    np.testing.assert_array_equal(out[2], z[2])  # inside: unchanged
+    np.testing.assert_array_equal(out[:2, 2], z[:2, 2])  # an unbounded prior: nothing to clip
+    width = hi[:2] - lo[:2]
+    np.testing.assert_allclose(out[0, :2], lo[:2] + CLIP_MARGIN * width, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(out[1, :2], hi[:2] - CLIP_MARGIN * width, rtol=0, atol=1e-15)
+    assert np.all(np.isfinite(ps.log_prior_z(out)))
+    np.testing.assert_array_equal(clip_inside(z, lo, hi), out)
+    # value space: the same rule through the transform, a float for a scalar
+    a = ps["a"].clip_inside(1e9)
+    assert isinstance(a, float) and a < 1e3
+    assert np.log(a) == pytest.approx(hi[0] - CLIP_MARGIN * width[0], abs=1e-12)
+    assert ps["b"].clip_inside(-3.0) == pytest.approx(-1.0 + 2.0 * CLIP_MARGIN, abs=1e-15)
+    assert ps["a"].clip_inside(2.0) == 2.0

@@ -179,6 +179,13 @@ def test_a_registered_term_is_sampled_saved_and_reloaded(meas, fit, tmp_path):
     assert back.model == post.model and back.model.spec == "II+zobel_network"
     assert back.model.params == post.model.params  # priors included
     np.testing.assert_array_equal(back.draws, draws)
+    # without the term registered the file cannot be read, and says why in one line
+    unregister_term(Zobel.id)
+    try:
+        with pytest.raises(ValueError, match="unknown physics term 'zobel_network'.*register_term"):
+            bayes_emt.read_posterior(path)
+    finally:
+        register_term(Zobel)
     # the walkers stay where the data put the Zobel network (its posterior is a few standard
     # errors wide; 300 steps from the fit's ball cannot wander off without a sampler bug)
     i = list(post.names).index("R_zob")

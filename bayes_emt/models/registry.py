@@ -209,7 +209,8 @@ def make_term(term_id: str, **config) -> Term:
     except KeyError:
         base = ", ".join(sorted(set(TERMS) - set(AUGMENTATIONS)))
         raise ValueError(f"unknown physics term {term_id!r}; the catalogue has "
-                         f"{', '.join(AUGMENTATIONS)} (and the base terms {base})") from None
+                         f"{', '.join(AUGMENTATIONS)} (and the base terms {base}); a term defined "
+                         "outside the package is registered first (bayes_emt.models.register_term)") from None
     return cls.make(**config)
 
 
