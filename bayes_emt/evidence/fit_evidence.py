@@ -65,6 +65,7 @@ from ..inference.likelihood import Likelihood
 from ..inference.sampling import noise_start
 from ..inference.start import floor_noise_start, posterior_mode
 from ..measurement import Measurement
+from ..params import clip_inside
 from .laplace import affine_map, hessian_fd, laplace_evidence
 from .warp import Warp
 
@@ -345,8 +346,7 @@ def fit_log_evidence(meas: Measurement, fit, *, lik: Likelihood | None = None) -
             # modes: relative noise dominating, or the absolute floor), as the sampler's start does
             z_abs = z0.copy()
             z_abs[k : k + 2] = floor_noise_start(lik, fit.theta, z0[k])[0]
-            lo, hi = lik.params.bounds_z()
-            z_abs = np.clip(z_abs, np.asarray(lo) + 1e-9, np.asarray(hi) - 1e-9)
+            z_abs = clip_inside(z_abs, *lik.params.bounds_z())
             starts = np.array([mode, z0, z_abs])
             mode = posterior_mode(lik, starts, scale + 1e-12 * np.eye(lik.ndim))
             # every bounded coordinate logit-mapped: a flat direction then ends inside the
