@@ -100,6 +100,13 @@ class Candidate:
     implausible: str | None = None
     evidence_method: str = "laplace"
     evidence_note: str = ""
+    #: a generic patch (:func:`.prefer.is_patch`) and, when it has not earned its place, why
+    patch: bool = False
+    patch_problem: str | None = None
+
+    @property
+    def n_added(self) -> int:
+        return len(self.added)
 
     @property
     def whitening(self) -> float:
@@ -115,6 +122,7 @@ class Candidate:
             self.delta_log_z >= MIN_DELTA_LOG_Z
             and self.whitening >= MIN_WHITENING
             and self.implausible is None
+            and self.patch_problem is None
         )
 
     @property
@@ -205,7 +213,8 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str,
         )
     sd_z = np.sqrt(np.clip(np.diag(fit.cov_z), 0, None))
     bad = [n for n in new_names if sd_z[model.names.index(n)] > MAX_REL_SE]
-    notes = [t.identifiability for t in model.augmentations if t.id == physics and t.identifiability]
+    ids = physics.split("+")
+    notes = [t.identifiability for t in model.augmentations if t.id in ids and t.identifiability]
     if bad:
         return False, f"not determined by the data: {', '.join(bad)} (relative sd > {MAX_REL_SE:g})", added
     if notes:
@@ -217,8 +226,11 @@ def fit_candidate(
     meas: Measurement, current: FitResult, physics: str, band: Band
 ) -> list[tuple[FitResult, Evidence]]:
     """``(fit, evidence)`` of ``physics`` added to ``current.model`` (module docstring); for
-    the eddy-current escalation one per escalated coil model. Fits that fail are left out."""
+    the eddy-current escalation one per escalated coil model; for a joint ``"a+b"`` the second
+    term added to the first's fit (``current`` is then that fit). Fits that fail are left out."""
     out = []
+    if "+" in physics:
+        physics = physics.split("+")[-1]
     if physics == EDDY_PHYSICS:
         # up the ladder; NL's ring count by evidence: more rings until one more ring loses
         best = -math.inf
@@ -262,20 +274,35 @@ def rank_candidates(
     physics_ids: list[str],
     progress=None,
     deadline: float | None = None,
+    joint: bool = True,
 ) -> list[Candidate]:
     """Every candidate of ``physics_ids`` for ``band``, best first (accepted first, then by
-    ``Δ log Z``)."""
+    ``Δ log Z``). Patches (:func:`.prefer.is_patch`) are accepted only with determined parameters
+    and, for a step, a discontinuity of their own (:func:`.prefer.step_evidence`). With ``joint``,
+    when no physical term alone is accepted or a patch leads, pairs of the best physical terms are
+    tried together (the second added to the first's fit)."""
+    from .prefer import is_patch, step_evidence
+
     before = band_chi2(meas, current.model, current.theta, band, sigma_rel)
     scan0 = band_scan(meas, current.model, current.theta, band, sigma_rel)
     n_band = 2 * (band.i_hi - band.i_lo + 1)
     out = []
-    for physics in physics_ids:
+    jobs = [(p, current) for p in physics_ids]
+    tried_joint = not joint
+    while jobs or not tried_joint:
+        if not jobs:
+            tried_joint = True
+            jobs = _joint_jobs(out, current)
+            if jobs and progress:
+                progress("  trying physical terms jointly: " + ", ".join(p for p, _ in jobs))
+            continue
+        physics, base = jobs.pop(0)
         if deadline is not None and time.process_time() > deadline:
             if progress:
                 progress(f"time budget reached: {physics} and later candidates not tried")
             break
         t0 = time.perf_counter()
-        for fit, ev in fit_candidate(meas, current, physics, band):
+        for fit, ev in fit_candidate(meas, base, physics, band):
             lz = ev.log_z
             if progress:
                 how = "" if not ev.fallback else f" [{ev.method}: {ev.note}]"
@@ -287,14 +314,20 @@ def rank_candidates(
             new_names = [n for n in fit.model.names if n not in current.model.names]
             ident, why, added = _identifiable(fit, new_names, physics, ev)
             values = fit.model.as_dict(fit.theta)
+            ids = physics.split("+")
             bad = next(
                 (
                     w
                     for t in fit.model.augmentations
-                    if t.id == physics and (w := t.implausible(values)) is not None
+                    if t.id in ids and (w := t.implausible(values)) is not None
                 ),
                 None,
             )
+            patch = is_patch(physics, fit)
+            problem = None
+            if patch:
+                problem = (None if ident else f"a patch with undetermined parameters ({why})")
+                problem = problem or step_evidence(meas, current, fit, physics)
             out.append(
                 Candidate(
                     physics,
@@ -312,10 +345,38 @@ def rank_candidates(
                     bad,
                     ev.method,
                     ev.note,
+                    patch,
+                    problem,
                 )
             )
-    # the eddy-current escalation: keep only its best rung (the ring count by evidence)
-    best_eddy = max((c for c in out if c.physics == EDDY_PHYSICS), key=lambda c: c.log_z, default=None)
-    out = [c for c in out if c.physics != EDDY_PHYSICS or c is best_eddy]
+    # the eddy-current escalation: keep only its best rung (the ring count by evidence), and its best
+    # physical rung (the first) beside a better patch rung
+    eddy = [c for c in out if c.physics == EDDY_PHYSICS]
+    best_eddy = max(eddy, key=lambda c: c.log_z, default=None)
+    best_phys = max((c for c in eddy if not c.patch), key=lambda c: c.log_z, default=None)
+    out = [c for c in out if c.physics != EDDY_PHYSICS or c is best_eddy or c is best_phys]
     out.sort(key=lambda c: (not c.accepted, -c.delta_log_z))
     return out
+
+
+#: physical terms (the best by Δ log Z) paired in the joint step
+JOINT_TOP = 3
+
+
+def _joint_jobs(out: list[Candidate], current: FitResult) -> list[tuple[str, FitResult]]:
+    """Pairs ``"a+b"`` of the best :data:`JOINT_TOP` physical single terms, each job the second term
+    to add to the first's fit, when no physical single is accepted or a patch leads."""
+    singles = [c for c in out if "+" not in c.physics and c.physics != EDDY_PHYSICS]
+    phys = sorted((c for c in singles if not c.patch and c.implausible is None
+                   and math.isfinite(c.delta_log_z) and c.delta_log_z > 0),
+                  key=lambda c: -c.delta_log_z)[:JOINT_TOP]
+    if len(phys) < 2:
+        return []
+    leader = max(out, key=lambda c: c.delta_log_z if math.isfinite(c.delta_log_z) else -math.inf)
+    if any(c.accepted and not c.patch for c in out) and not leader.patch:
+        return []
+    jobs = []
+    for i, a in enumerate(phys):
+        for b in phys[i + 1:]:
+            jobs.append((f"{a.physics}+{b.physics}", a.fit))
+    return jobs
