@@ -323,6 +323,7 @@ def rank_candidates(
                 ),
                 None,
             )
+            bad = bad or _at_prior_bound(fit, new_names)
             patch = is_patch(physics, fit)
             problem = None
             if patch:
@@ -380,3 +381,27 @@ def _joint_jobs(out: list[Candidate], current: FitResult) -> list[tuple[str, Fit
         for b in phys[i + 1:]:
             jobs.append((f"{a.physics}+{b.physics}", a.fit))
     return jobs
+
+
+#: an added parameter within this fraction of its prior's range (sampling space) from a bound sits
+#: at the bound
+AT_BOUND = 1e-3
+
+
+def _at_prior_bound(fit: FitResult, new_names: list[str]) -> str | None:
+    """Why the fit is not this physics when an added parameter sits at its prior's bound (the data
+    push it past what the physics allows: the term absorbs another misfit); ``None`` otherwise."""
+    z = fit.model.params.to_z(np.asarray(fit.theta, float))
+    lo, hi = fit.model.params.bounds_z()
+    out = []
+    for n in new_names:
+        i = fit.model.names.index(n)
+        if not (math.isfinite(lo[i]) and math.isfinite(hi[i])):
+            continue
+        tol = AT_BOUND * (hi[i] - lo[i])
+        if z[i] - lo[i] < tol or hi[i] - z[i] < tol:
+            out.append(f"{n} = {fit.theta[i]:.4g}")
+    if not out:
+        return None
+    return (f"{', '.join(out)} at the bound of its prior: the data push the term past what its "
+            "physics allows (it absorbs another misfit)")
