@@ -250,7 +250,7 @@ class Diagnosis(Record):
             out.append(
                 Table(
                     "plant parameters, start -> final",
-                    ("parameter", "start", "final", "change [%]", "unit"),
+                    ("parameter", "start", "final", "change [%]", "unit", f"beyond {MOVE_SE:g} s.e."),
                     tuple(
                         (
                             k,
@@ -258,6 +258,7 @@ class Diagnosis(Record):
                             v["after"],
                             None if v["relative_change"] is None else 100 * v["relative_change"],
                             units.get(k, ""),
+                            {True: "yes", False: "no"}.get(v.get("beyond_stderr"), "-"),
                         )
                         for k, v in moved.items()
                     ),

@@ -196,6 +196,12 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str,
     model = fit.model
     se = fit.stderr
     added = {n: (float(v), float(se[n])) for n, v in model.as_dict(fit.theta).items() if n in new_names}
+    # a step between two measured points (a term's ``step_at``) is flat between them by construction:
+    # the data pin it to that interval, which :func:`.prefer.step_evidence` checks; the other added
+    # parameters must be determined
+    ids = physics.split("+")
+    steps = {t.step_at for t in model.augmentations if t.id in ids and t.step_at}
+    new_names = [n for n in new_names if n not in steps]
     flat = sorted({n for f in (ev.flat if ev is not None else ()) for n in f if n in new_names})
     if flat:
         return (
@@ -205,15 +211,16 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str,
             + " (its evidence integrates that direction numerically)",
             added,
         )
-    if fit.cov_z is None:
+    if fit.cov_z is None and not steps:
         return (
             False,
             "the fit's Jacobian is rank-deficient: the data do not determine the new parameters",
             added,
         )
+    if fit.cov_z is None:  # the step's own column is zero: the posterior's flat directions decided
+        return True, "the step lies between two adjacent points; its size is determined by the data", added
     sd_z = np.sqrt(np.clip(np.diag(fit.cov_z), 0, None))
     bad = [n for n in new_names if sd_z[model.names.index(n)] > MAX_REL_SE]
-    ids = physics.split("+")
     notes = [t.identifiability for t in model.augmentations if t.id in ids and t.identifiability]
     if bad:
         return False, f"not determined by the data: {', '.join(bad)} (relative sd > {MAX_REL_SE:g})", added
