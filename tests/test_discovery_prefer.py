@@ -59,8 +59,9 @@ def test_a_port_needs_a_vented_setup_or_its_two_maxima():
     assert setup_excludes("semi_inductance", "free-air", plain) is None
 
 
-def _cand(physics, dlz, patch=False, n_added=2, accepted=True):
-    return SimpleNamespace(physics=physics, delta_log_z=dlz, patch=patch, n_added=n_added, accepted=accepted)
+def _cand(physics, dlz, patch=False, n_added=2, accepted=True, identifiable=True):
+    return SimpleNamespace(physics=physics, delta_log_z=dlz, patch=patch, n_added=n_added, accepted=accepted,
+                           identifiable=identifiable)
 
 
 def test_a_patch_needs_the_margin_over_the_best_physical_term():
@@ -68,6 +69,9 @@ def test_a_patch_needs_the_margin_over_the_best_physical_term():
     near = _cand("measurement_artifact", 100.0 + PATCH_MARGIN - 0.5, patch=True, n_added=3)
     pick, notes = choose([near, phys])
     assert pick is phys and any("cannot tell them apart" in n for n in notes)
+    # a physical term the data do not determine does not hold off a determined patch that fits better
+    vague = _cand("semi_inductance", 100.0, identifiable=False)
+    assert choose([near, vague])[0] is near
     far = _cand("measurement_artifact", 100.0 + PATCH_MARGIN + 0.5, patch=True, n_added=3)
     assert choose([far, phys])[0] is far
     # no physical term accepted: the patch is named, and said to be a patch

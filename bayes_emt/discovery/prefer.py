@@ -228,7 +228,9 @@ def choose(ranked) -> tuple[object | None, list[str]]:
     """The candidate a band gets (module docstring) and the notes saying what was weighed: among the
     accepted, the best physical one (a joint pair only when it beats the best single by
     :data:`PATCH_MARGIN`; within :data:`NEAR_TIE` the one adding fewer parameters), unless a patch
-    beats it by :data:`PATCH_MARGIN`; a patch alone when no physical candidate is accepted."""
+    beats it by :data:`PATCH_MARGIN` (or leads a physical one whose parameters the data do not
+    determine: an undetermined physical term is no better an explanation); a patch alone when no
+    physical candidate is accepted."""
     acc = [c for c in ranked if c.accepted]
     if not acc:
         return None, []
@@ -261,6 +263,10 @@ def choose(ranked) -> tuple[object | None, list[str]]:
             notes.append(f"{bp.physics} is a generic patch named because no physical term explains the band")
             return bp, notes
         lead = bp.delta_log_z - pick.delta_log_z
+        if lead > 0 and not pick.identifiable:
+            notes.append(f"the patch {bp.physics} fits {lead:.1f} nats better than {pick.physics}, whose "
+                         "parameters the data do not determine, while its own are determined: it is named")
+            return bp, notes
         if lead >= PATCH_MARGIN:
             notes.append(f"the patch {bp.physics} beats the best physical term {pick.physics} by "
                          f"{lead:.1f} nats (>= the margin {PATCH_MARGIN:g})")
