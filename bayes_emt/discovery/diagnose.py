@@ -7,6 +7,12 @@ the best candidate when it is significant by evidence and whitens the band, and 
 round from the augmented fit. A round in which no band is explained ends the search; the bands
 still flagged then are ``unexplained``, each with its shape (:mod:`.shape`). The result is a
 frozen :class:`Diagnosis` whose :meth:`~Diagnosis.to_json_dict` is the ``diagnose --json`` schema.
+
+Which candidate a band gets is :func:`.prefer.choose`: physical terms before generic patches (a
+patch needs determined parameters, a step its own discontinuity, and 10 nats over the best physical
+term), physical terms tried in pairs when none explains the band alone, terms impossible in the
+``setup`` not tried (:mod:`.prefer`). A finding's band is where the term changes the fit beyond the
+noise (:func:`.prefer.change_band`), reported as broadband when wider than two decades.
 """
 
 from __future__ import annotations

@@ -268,6 +268,16 @@ def fit_candidate(
     ok = [f for f in fits if not f.info.get("resonance_mismatch")] or fits
     if not ok:
         return []
+    if term.step_at:
+        # a step's fits at different frequencies are different explanations: the best by χ² may put
+        # it where the data are smooth (another misfit pulls it), so each distinct one is ranked and
+        # the step evidence (:func:`.prefer.step_evidence`) tells them apart
+        distinct = []
+        for f in sorted(ok, key=lambda f: f.chi2):
+            w = f.model.as_dict(f.theta)[term.step_at]
+            if all(abs(math.log(w / f2.model.as_dict(f2.theta)[term.step_at])) > 1e-3 for f2 in distinct):
+                distinct.append(f)
+        return [(f, fit_log_evidence(meas, f)) for f in distinct]
     best = min(ok, key=lambda f: f.chi2)
     return [(best, fit_log_evidence(meas, best))]
 
