@@ -59,8 +59,8 @@ NARROW_RATIO = 1.26
 
 
 def narrow_resonance(band: Band, shape: dict) -> dict | None:
-    """``{"f_hz", "q", "band_hz"}`` when ``band`` is a narrow feature: at most :data:`NARROW_RATIO`
-    wide (hi/lo) or its rational fit's strongest pole pair inside it with Q ≥ 5. Q is the pole's
+    """``{"f_hz", "q", "band_hz"}`` when ``band`` is a narrow feature, at most :data:`NARROW_RATIO`
+    wide (hi/lo), at its rational fit's sharpest pole pair inside it. Q is the pole's
     ``|p|/(2 |Re p|)``: a pole in the right half-plane (Levy's linearisation does not enforce
     stability) is read by its mirror image, which has the same magnitude response; without a pole
     pair inside the band Q is the band's ``f_centre/(f_hi − f_lo)``."""
@@ -72,8 +72,7 @@ def narrow_resonance(band: Band, shape: dict) -> dict | None:
             q = mod / (2 * abs(re)) if re != 0 else float("inf")
             if best is None or q > best[1]:
                 best = (mod / (2 * np.pi), q)
-    narrow = hi / lo <= NARROW_RATIO or (best is not None and best[1] >= 5.0)
-    if not narrow:
+    if hi / lo > NARROW_RATIO:
         return None
     if best is None:
         fc = float(np.sqrt(lo * hi))
@@ -107,6 +106,15 @@ def describe_shape(band: Band, shape: dict) -> str:
         elif abs(im) <= 1e-6 * mod:
             words.append(f"a real pole at {abs(re) / (2 * np.pi):.4g} Hz")
     form = "; ".join(words) if words else "no pole in the rational fit"
+    sharp = [(float(np.hypot(re, im)), float(np.hypot(re, im)) / (2 * abs(re)) if re else float("inf"))
+             for re, im in shape["poles_rad_s"] if im > 0 and band.lo <= np.hypot(re, im) <= band.hi]
+    sharp = [(w, q) for w, q in sharp if q >= 5.0]
+    if sharp:
+        w, q = max(sharp, key=lambda p: p[1])
+        f, q = w / (2 * np.pi), min(q, 1e6)
+        f1, f2 = f * (1 - 1.5 / q), f * (1 + 1.5 / q)
+        form += (f"; the pole pair at {f:.4g} Hz is sharp (Q ≈ {q:.3g}): if it is a cone or surround "
+                 f"mode no lumped term models, exclude about --exclude-band {f1:.4g}:{f2:.4g}")
     broad = np.log10(hi / lo) > 2.0 if lo > 0 else False
     return (
         f"unexplained {'broadband ' if broad else ''}mismatch of rms {100 * shape['rms_residual_rel']:.2g} % "
