@@ -153,6 +153,10 @@ def test_a_narrow_feature_is_an_unmodelled_narrow_resonance_never_a_negative_dam
     text = describe_shape(Band(2 * np.pi * 10, 2 * np.pi * 1e4, 0, 100, ("real",), 80.0, 20.0, w0), sharp)
     assert text.startswith("unexplained broadband") and "sharp (Q ≈ 300)" in text
     assert "--exclude-band 5373:5427" in text
+    sharper = {"poles_rad_s": [[-w0 / 1e6, w0], [-w0 / 1e6, -w0]], "zeros_rad_s": [],
+               "rms_residual_rel": 0.01}
+    text = describe_shape(Band(2 * np.pi * 10, 2 * np.pi * 1e4, 0, 100, ("real",), 80.0, 20.0, w0), sharper)
+    assert "--exclude-band 5346:5454" in text  # at least ±1 % of f
 
 
 def test_exclude_bands_drops_the_points_and_says_so(tmp_path, capsys):

@@ -112,7 +112,8 @@ def describe_shape(band: Band, shape: dict) -> str:
     if sharp:
         w, q = max(sharp, key=lambda p: p[1])
         f, q = w / (2 * np.pi), min(q, 1e6)
-        f1, f2 = f * (1 - 1.5 / q), f * (1 + 1.5 / q)
+        half = max(1.5 / q, 0.01)  # at least ±1 %: a pole sharper than the grid is not resolved
+        f1, f2 = f * (1 - half), f * (1 + half)
         form += (f"; the pole pair at {f:.4g} Hz is sharp (Q ≈ {q:.3g}): if it is a cone or surround "
                  f"mode no lumped term models, exclude about --exclude-band {f1:.4g}:{f2:.4g}")
     broad = np.log10(hi / lo) > 2.0 if lo > 0 else False
