@@ -149,10 +149,10 @@ def test_a_narrow_feature_is_an_unmodelled_narrow_resonance_never_a_negative_dam
     text = describe_shape(wide, shape)
     assert "damping ratio 0.2" in text and "damping ratio -" not in text
     # a sharp pole in a wide band: not a narrow band, but the pole's own band is suggested
-    sharp = {"poles_rad_s": [[-w0 / 600, w0], [-w0 / 600, -w0]], "zeros_rad_s": [], "rms_residual_rel": 0.01}
+    sharp = {"poles_rad_s": [[-w0 / 100, w0], [-w0 / 100, -w0]], "zeros_rad_s": [], "rms_residual_rel": 0.01}
     text = describe_shape(Band(2 * np.pi * 10, 2 * np.pi * 1e4, 0, 100, ("real",), 80.0, 20.0, w0), sharp)
-    assert text.startswith("unexplained broadband") and "sharp (Q ≈ 300)" in text
-    assert "--exclude-band 5373:5427" in text
+    assert text.startswith("unexplained broadband") and "sharp (Q ≈ 50)" in text
+    assert "--exclude-band 5238:5562" in text  # f (1 ± 1.5/Q)
     sharper = {"poles_rad_s": [[-w0 / 1e6, w0], [-w0 / 1e6, -w0]], "zeros_rad_s": [],
                "rms_residual_rel": 0.01}
     text = describe_shape(Band(2 * np.pi * 10, 2 * np.pi * 1e4, 0, 100, ("real",), 80.0, 20.0, w0), sharper)
