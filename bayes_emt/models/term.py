@@ -232,6 +232,9 @@ class Term:
     #: the data signature the term needs before it is tried when the setup is ``unknown`` (a name of
     #: discovery's signature checks, e.g. ``"two_impedance_maxima"``); empty: none
     unknown_setup_needs: ClassVar[str] = ""
+    #: the term re-places the driver's own resonance (a vented box splits it into two peaks), so
+    #: discovery lets it move fs beyond :data:`~bayes_emt.discovery.name.FS_FACTOR_MAX`
+    moves_resonance: ClassVar[bool] = False
 
     # ---- construction and serialisation ---------------------------------------------------------
     @classmethod

@@ -24,6 +24,7 @@ class EnclosurePort(Term):
     band = "mechanical"
     requires_setup = ("vented", "unknown")
     unknown_setup_needs = "two_impedance_maxima"
+    moves_resonance = True
     physics = "enclosure_port"
     description = ("vented box or passive radiator: box compliance and port mass coupled to the driver's "
                    "motional branch")
