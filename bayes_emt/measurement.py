@@ -129,6 +129,29 @@ class Measurement:
         w = None if self.weights is None else self.weights[keep]
         return replace(self, omega=self.omega[keep], Y=self.Y[keep], weights=w)
 
+    def exclude_bands(self, bands_hz) -> Measurement:
+        """The points outside every ``(f1_hz, f2_hz)`` of ``bands_hz`` (inclusive ends, Hz): a narrow
+        feature no lumped model explains (cone break-up, a surround dip) left out of a fit. An empty
+        ``bands_hz`` returns ``self``; a band with ``f1 >= f2`` or a non-finite end, or one that
+        leaves fewer than 8 points, raises :class:`DataFormatError` naming it."""
+        bands = [tuple(b) for b in (bands_hz or ())]
+        if not bands:
+            return self
+        keep = np.ones(self.n_points, bool)
+        f = self.f_hz
+        for b in bands:
+            if len(b) != 2 or not all(math.isfinite(float(x)) for x in b) or not float(b[0]) < float(b[1]):
+                raise DataFormatError(
+                    f"{self.source}: exclude band {b!r} must be (f1_hz, f2_hz) with f1 < f2")
+            keep &= ~((f >= float(b[0])) & (f <= float(b[1])))
+        if np.count_nonzero(keep) < 8:
+            raise DataFormatError(
+                f"{self.source}: excluding {bands} leaves {np.count_nonzero(keep)} points (need 8)")
+        w = None if self.weights is None else self.weights[keep]
+        excl = [list(map(float, b)) for b in bands]
+        return replace(self, omega=self.omega[keep], Y=self.Y[keep], weights=w,
+                       meta=MappingProxyType({**self.meta, "excluded_bands_hz": excl}))
+
     def with_meta(self, **meta: Any) -> Measurement:
         return replace(self, meta=MappingProxyType({**self.meta, **meta}))
 

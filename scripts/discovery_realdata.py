@@ -26,23 +26,39 @@ from pathlib import Path
 from bayes_emt._atomic import atomic_write_text
 from bayes_emt.added_mass.fit import fit_added_mass
 from bayes_emt.discovery import diagnose
+from bayes_emt.estimation.fitting import fit_admittance
 from bayes_emt.io.datasets import REALDATA_FILES, load_realdata
 from bayes_emt.models import parse_model_spec
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata"
 PAIR = ("dayton_LS10-44_freeair_run2.txt", "dayton_LS10-44_added100g_run2.txt", 0.100)
+#: how each recording was mounted (../shared/realdata/README.md), for ``--setup known``
+SETUP = {
+    "dayton_LS10-44.zma": "free-air",
+    "dayton_LS10-44_freeair_run2.txt": "free-air",
+    "dayton_LS10-44_added100g_run2.txt": "free-air",
+    "seas_E0018_freeair.zma": "free-air",
+    "koan_mid_sealed.zma": "sealed",
+    "koan_tweeter.zma": "sealed",  # a tweeter's closed back: no port
+}
 
 
-def run_one(name: str, out: Path) -> dict:
+def run_one(name: str, out: Path, setup: str = "unknown", time_budget: float | None = 240.0) -> dict:
     path = out / f"{name}.json"
     if path.exists():
         return json.loads(path.read_text())
     meas = load_realdata(REAL, name)
-    t = time.perf_counter()
+    setup = SETUP.get(name, "unknown") if setup == "known" else setup
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        d = diagnose(meas, None, progress=lambda m: print("   ", m, flush=True))
-    rec = {"file": name, "n_points": meas.n_points, "seconds": time.perf_counter() - t, **d.details()}
+        t = time.perf_counter()
+        fit_admittance(meas, parse_model_spec("UD"))
+        t_ud = time.perf_counter() - t
+        t = time.perf_counter()
+        d = diagnose(meas, None, setup=setup, time_budget=time_budget,
+                     progress=lambda m: print("   ", m, flush=True))
+    rec = {"file": name, "n_points": meas.n_points, "seconds": time.perf_counter() - t, "setup": setup,
+           "seconds_one_ud_fit": t_ud, **d.details()}
     moved = {}
     for k in ("R0", "Qms", "fs_hz", "phi"):
         a, b = d.baseline_fit.parameters, d.final_fit.parameters
@@ -87,6 +103,10 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="scripts/results/discovery_realdata")
     ap.add_argument("--only", nargs="*", default=None)
+    ap.add_argument("--setup", default="unknown", choices=["unknown", "known"],
+                    help="unknown (default): every recording diagnosed with setup unknown; known: with "
+                         "its mounting from ../shared/realdata/README.md (free air, sealed)")
+    ap.add_argument("--time-budget", type=float, default=240.0, help="CPU s per diagnosis (0: none)")
     ap.add_argument("--report-only", action="store_true",
                     help="tabulate the recordings already diagnosed in --out (and the added-mass pair)")
     a = ap.parse_args(argv)
@@ -100,18 +120,19 @@ def main(argv=None) -> int:
         if (a.only and name not in a.only) or (a.report_only and not (out / f"{name}.json").exists()):
             continue
         print(name, flush=True)
-        recs[name] = run_one(name, out)
+        recs[name] = run_one(name, out, a.setup, a.time_budget or None)
     pair = added_mass(recs, out) if not a.only else None
     lines = [
         "| recording | start | final | findings | unexplained bands (Hz) | rms before | rms after | "
-        "R0 | Qms | fs | seconds |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "R0 | Qms | fs | seconds | x one UD fit |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, r in recs.items():
         fnd = (
             "; ".join(
-                f"{f['physics']} ({f['band_hz'][0]:.3g}-{f['band_hz'][1]:.3g} Hz, "
-                f"dlogZ {f['delta_log_evidence']:.0f})"
+                f"{f['physics']} ({f['band_hz'][0]:.3g}-{f['band_hz'][1]:.3g} Hz"
+                + (", broadband" if f.get("broadband") else "")
+                + f", dlogZ {f['delta_log_evidence']:.0f})"
                 for f in r["findings"]
             )
             or "none"
@@ -129,7 +150,9 @@ def main(argv=None) -> int:
                 f"{mv[k]['before']:.4g} -> {mv[k]['after']:.4g} ({100 * mv[k]['relative_change']:+.1f} %)"
                 for k in ("R0", "Qms", "fs_hz")
             )
-            + f" | {r['seconds']:.0f} |"
+            + f" | {r['seconds']:.0f} | "
+            + (f"{r['seconds'] / r['seconds_one_ud_fit']:.0f}" if r.get("seconds_one_ud_fit") else "-")
+            + " |"
         )
     if pair:
         lines += [

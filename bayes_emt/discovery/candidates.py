@@ -45,11 +45,17 @@ def candidate_physics(band: Band, model: Model, omega_r: float | None) -> list[s
     """Physics ids (SPEC §7) whose signature can act in ``band``, for a model already holding
     ``model``'s terms (module docstring); ``omega_r`` [rad/s] the resonance (``None``: every id).
     The eddy-current escalation comes last (NL fits are the slowest: a time budget cuts it rather
-    than the cheap catalogue terms), and only when ``model``'s coil model has a rung above it."""
+    than the cheap catalogue terms), and only when ``model``'s coil model has a rung above it and
+    ``model`` holds no lossy-coil augmentation (a ``coil`` term already models the coil's loss)."""
     present = {t.id for t in model.augmentations}
     high = omega_r is None or band.hi > 3.0 * omega_r
     low = omega_r is None or band.lo < 3.0 * omega_r
     acts = {"coil": high, "mechanical": low, "anywhere": True}
     out = [p for b in BANDS if acts[b] for p in physics_in_band(b)]
-    out = [p for p in out if p != EDDY_PHYSICS] + [p for p in out if p == EDDY_PHYSICS and escalations(model)]
+    # a lossy-coil augmentation (a ``coil`` term: the coil's own eddy-current loss, e.g. a
+    # semi-inductance) already models what the escalation would: NL rings on top of it are flexible
+    # capacity, not physics, and the slowest fits of a round
+    lossy = any(t.coil for t in model.augmentations)
+    out = [p for p in out if p != EDDY_PHYSICS] + [
+        p for p in out if p == EDDY_PHYSICS and not lossy and escalations(model)]
     return [p for p in out if p not in present]

@@ -7,6 +7,12 @@ the best candidate when it is significant by evidence and whitens the band, and 
 round from the augmented fit. A round in which no band is explained ends the search; the bands
 still flagged then are ``unexplained``, each with its shape (:mod:`.shape`). The result is a
 frozen :class:`Diagnosis` whose :meth:`~Diagnosis.to_json_dict` is the ``diagnose --json`` schema.
+
+Which candidate a band gets is :func:`.prefer.choose`: physical terms before generic patches (a
+patch needs determined parameters, a step its own discontinuity, and 10 nats over the best physical
+term), physical terms tried in pairs when none explains the band alone, terms impossible in the
+``setup`` not tried (:mod:`.prefer`). A finding's band is where the term changes the fit beyond the
+noise (:func:`.prefer.change_band`), reported as broadband when wider than two decades.
 """
 
 from __future__ import annotations
@@ -24,13 +30,13 @@ from ..estimation.checks import locate_resonance
 from ..estimation.fitting import fit_admittance
 from ..estimation.results import FitResult
 from ..evidence.fit_evidence import fit_log_evidence
-from ..evidence.scale import verbal
 from ..measurement import Measurement
 from ..models import EDDY_PHYSICS, Model, parse_model_spec
 from ..models.derived import derived_values
 from .candidates import candidate_physics
 from .locate import ALPHA, Band, Location, locate_mismatch
 from .name import Candidate, log_evidence, max_log_likelihood, rank_candidates
+from .prefer import change_band, check_setup, choose, setup_excludes
 from .shape import describe_shape, residual_shape
 
 __all__ = ["Finding", "Diagnosis", "diagnose", "preferred_base_model", "BASELINE_CANDIDATES"]
@@ -66,10 +72,17 @@ class Finding:
     explanation: str
     evidence_method: str = "laplace"
     evidence_note: str = ""
+    #: the band the scan flagged [rad/s] (``band`` is where the term changes the fit beyond the noise)
+    located_band: tuple = ()
+    broadband: bool = False
+    band_shape: str = ""
 
     def to_json_dict(self) -> dict:
         return {
             "physics": self.physics,
+            "located_band_rad_s": list(self.located_band),
+            "broadband": self.broadband,
+            "band_shape": self.band_shape,
             "band_rad_s": [self.band.lo, self.band.hi],
             "band_hz": [self.band.lo / (2 * math.pi), self.band.hi / (2 * math.pi)],
             "delta_log_evidence": self.delta_log_evidence,
@@ -104,6 +117,9 @@ class Finding:
             d.get("explanation", ""),
             d.get("evidence_method", "laplace"),
             d.get("evidence_note", ""),
+            tuple(d.get("located_band_rad_s", ())),
+            bool(d.get("broadband", False)),
+            d.get("band_shape", ""),
         )
 
 
@@ -240,7 +256,7 @@ class Diagnosis(Record):
             out.append(
                 Table(
                     "plant parameters, start -> final",
-                    ("parameter", "start", "final", "change [%]", "unit"),
+                    ("parameter", "start", "final", "change [%]", "unit", f"beyond {MOVE_SE:g} s.e."),
                     tuple(
                         (
                             k,
@@ -248,6 +264,7 @@ class Diagnosis(Record):
                             v["after"],
                             None if v["relative_change"] is None else 100 * v["relative_change"],
                             units.get(k, ""),
+                            {True: "yes", False: "no"}.get(v.get("beyond_stderr"), "-"),
                         )
                         for k, v in moved.items()
                     ),
@@ -303,7 +320,7 @@ def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES) -> tuple[
     return best[0], best[1], scores
 
 
-def _mechanics(fit: FitResult) -> dict:
+def _mechanics(fit: FitResult, with_se: bool = False) -> dict:
     p = fit.parameters
     out = {k: p[k] for k in ("R0", "zeta", "omega0", "phi") if k in p}
     d = derived_values(fit.model, fit.theta)
@@ -311,18 +328,44 @@ def _mechanics(fit: FitResult) -> dict:
         out["fs_hz"] = d["fs"]
     if "zeta" in p:
         out["Qms"] = d["Qms"]
-    return out
+    if not with_se:
+        return out
+    se = {}
+    try:
+        raw = {k: float(fit.stderr[k]) for k in ("R0", "zeta", "omega0", "phi") if k in p}
+    except (KeyError, TypeError, ValueError):
+        raw = {}
+    se.update(raw)
+    if "omega0" in raw:
+        se["fs_hz"] = raw["omega0"] / (2 * math.pi)
+    if "zeta" in raw and p["zeta"] > 0:
+        se["Qms"] = raw["zeta"] / (2 * p["zeta"] ** 2)
+    return {k: (v, se.get(k, float("nan"))) for k, v in out.items()}
+
+
+#: a plant parameter's move counts as beyond its standard error when larger than this many of them
+MOVE_SE = 2.0
 
 
 def moved_parameters(before: FitResult, after: FitResult) -> dict:
-    """``{name: {"before", "after", "relative_change"}}`` of the plant parameters (R0, ζ, ω0, φ̄ and
-    the derived fs [Hz], Qms = 1/(2ζ)) [SI]."""
-    a, b = _mechanics(before), _mechanics(after)
-    return {
-        k: {"before": a[k], "after": b[k], "relative_change": (b[k] - a[k]) / a[k] if a[k] else None}
-        for k in a
-        if k in b
-    }
+    """``{name: {"before", "after", "relative_change", "stderr_before", "beyond_stderr"}}`` of the
+    plant parameters (R0, ζ, ω0, φ̄ and the derived fs [Hz], Qms = 1/(2ζ)) [SI]: ``beyond_stderr``
+    when the move exceeds :data:`MOVE_SE` standard errors of the ``before`` fit (``None``: no
+    standard error)."""
+    a, b = _mechanics(before, with_se=True), _mechanics(after)
+    out = {}
+    for k, (va, se) in a.items():
+        if k not in b:
+            continue
+        ok = math.isfinite(se) and se > 0
+        out[k] = {
+            "before": va,
+            "after": b[k],
+            "relative_change": (b[k] - va) / va if va else None,
+            "stderr_before": se if ok else None,
+            "beyond_stderr": bool(abs(b[k] - va) > MOVE_SE * se) if ok else None,
+        }
+    return out
 
 
 def r0_move_warning(before: FitResult, after: FitResult, limit: float = R0_MOVE_WARN) -> str | None:
@@ -363,11 +406,11 @@ def _explain(c: Candidate, band: Band, model: Model, moved: dict) -> str:
     lo, hi = band.lo / (2 * math.pi), band.hi / (2 * math.pi)
     head = f"{what} ({pars})" if pars else what
     shifts = ", ".join(
-        f"{k} {100 * d['relative_change']:+.1f} %"
+        f"{k} {100 * d['relative_change']:+.2f} %"
+        + (f" (beyond {MOVE_SE:g} standard errors)" if d.get("beyond_stderr") else "")
         for k, d in moved.items()
-        if k in ("R0", "Qms", "fs_hz", "phi")
+        if k in ("R0", "Qms", "fs_hz")
         and d["relative_change"] is not None
-        and abs(d["relative_change"]) > 0.005
     )
     holds = (
         "improves the fit and is determined by the data"
@@ -393,6 +436,8 @@ def diagnose(
     seed: int = 0,
     progress=None,
     time_budget: float | None = 240.0,
+    setup: str = "unknown",
+    exclude_band=None,
 ) -> Diagnosis:
     """Locate, name and model what ``model`` leaves out of ``meas`` (module docstring).
 
@@ -409,7 +454,16 @@ def diagnose(
     time_budget : CPU seconds of this process after which no further candidate is fitted (the
         round in progress finishes with what it has; a warning says so); ``None``: no limit. CPU
         time, not wall time: on a shared machine the result does not depend on the load.
+    setup : ``"free-air"``, ``"sealed"``, ``"vented"``, ``"shaker"`` or ``"unknown"`` (default): terms
+        impossible in the setup are not tried (a port needs a vented box); with ``"unknown"`` a term
+        may need its data signature first — a port needs two |Z| maxima with a minimum between them
+        (:func:`.prefer.two_impedance_maxima`: |Z| smoothed over 5 points has two interior maxima
+        within a factor 10 in frequency, each at least 10 % above the minimum between them).
+    exclude_band : ``[(f1_hz, f2_hz), ...]``: points left out (:meth:`Measurement.exclude_bands`),
+        e.g. a narrow cone break-up an earlier diagnosis reported as an unmodelled narrow resonance.
     """
+    check_setup(setup)
+    meas = meas.exclude_bands(exclude_band)
     t0 = time.perf_counter()
     deadline = None if time_budget is None else time.process_time() + time_budget
     say = progress or (lambda msg: None)
@@ -453,6 +507,7 @@ def diagnose(
     resonance = locate_resonance(meas)
     omega_r = None if resonance is None else resonance.omega
     findings, locations, tried = [], [], []
+    setup_notes: list[str] = []
     loc0 = loc = None
     unexplained_bands: list[Band] = []
     for rnd in range(max_rounds + 1):
@@ -470,7 +525,14 @@ def diagnose(
             unexplained_bands = list(loc.bands)
             break
         for band in loc.bands[:MAX_BANDS_PER_ROUND]:
-            ids = candidate_physics(band, fit.model, omega_r)
+            ids = []
+            for p in candidate_physics(band, fit.model, omega_r):
+                why = setup_excludes(p, setup, meas)
+                if why is None:
+                    ids.append(p)
+                elif why not in setup_notes:
+                    setup_notes.append(why)
+                    say(why)
             say(f"band {band.lo:.4g}-{band.hi:.4g} rad/s: trying {', '.join(ids)}")
             ranked = rank_candidates(meas, fit, lz, band, loc.sigma_rel, ids, progress=say, deadline=deadline)
             tried.append(
@@ -488,35 +550,42 @@ def diagnose(
                             "implausible": c.implausible,
                             "evidence_method": c.evidence_method,
                             "evidence_note": c.evidence_note,
+                            "patch": c.patch,
+                            "patch_problem": c.patch_problem,
                         }
                         for c in ranked
                     ],
                 }
             )
+            pick, notes = choose(ranked)
+            tried[-1]["choice"] = notes
             if deadline is not None and time.process_time() > deadline:
                 warn.append(
                     f"time budget of {time_budget:g} s reached while trying candidates for the band "
                     f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted"
                 )
-            if ranked and ranked[0].accepted:
-                accepted = (band, ranked[0])
-                # rivals the evidence cannot tell from the winner (|ln B| < 1, Kass & Raftery's
-                # "not worth more than a bare mention"): named, not hidden
-                for r in ranked[1:]:
-                    lb = ranked[0].delta_log_z - r.delta_log_z
-                    if r.accepted and r.physics != ranked[0].physics and verbal(lb) == "inconclusive":
-                        warn.append(
-                            f"{ranked[0].physics} ({ranked[0].fit.model.label}) and {r.physics} "
-                            f"({r.fit.model.label}) explain the band {band.lo:.4g}-{band.hi:.4g} rad/s "
-                            f"about equally: ln B = {lb:.2f} nats (inconclusive); the data do not tell "
-                            "them apart, the first is reported"
-                        )
+            for c in ranked:
+                if c.patch_problem and c.delta_log_z >= 5.0:
+                    say(f"  {c.physics} not accepted: {c.patch_problem}")
+            if pick is not None:
+                accepted = (band, pick)
+                for n in notes:
+                    say("  " + n)
+                # what the choice weighed (a patch within the margin of physics, a tie): named, not hidden
+                warn.extend(
+                    f"band {band.lo / (2 * math.pi):.4g}-{band.hi / (2 * math.pi):.4g} Hz: {n}"
+                    for n in notes
+                    if "cannot tell" in n or "patch" in n
+                )
                 break
             unexplained_bands.append(band)
         if accepted is None:
             unexplained_bands += list(loc.bands[MAX_BANDS_PER_ROUND:])
             break
-        band, c = accepted
+        located, c = accepted
+        where = change_band(meas, fit, c.fit, loc.sigma_rel)
+        band = dataclasses.replace(located, lo=where["lo"], hi=where["hi"], i_lo=where["i_lo"],
+                                   i_hi=where["i_hi"])
         moved = moved_parameters(fit, c.fit)
         units = dict(zip(c.fit.model.names, c.fit.model.params.units, strict=True))
         params = {
@@ -526,7 +595,7 @@ def diagnose(
             },
             "moved": moved,
         }
-        term = next((t for t in c.fit.model.augmentations if t.id == c.physics), None)
+        term = next((t for t in c.fit.model.augmentations if t.id in c.physics.split("+")), None)
         findings.append(
             Finding(
                 c.physics,
@@ -540,9 +609,14 @@ def diagnose(
                 params,
                 c.fit.model.label,
                 _explain(c, band, c.fit.model, moved)
-                + ("" if term is None or term.device else "; an instrument or session effect"),
+                + ("" if term is None or term.device else "; an instrument or session effect")
+                + (f"; {where['shape']}" if where["broadband"] else "")
+                + ("; a generic patch" if c.patch else ""),
                 c.evidence_method,
                 c.evidence_note,
+                (located.lo, located.hi),
+                where["broadband"],
+                where["shape"],
             )
         )
         if c.evidence_method != "laplace":

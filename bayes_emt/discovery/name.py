@@ -100,6 +100,13 @@ class Candidate:
     implausible: str | None = None
     evidence_method: str = "laplace"
     evidence_note: str = ""
+    #: a generic patch (:func:`.prefer.is_patch`) and, when it has not earned its place, why
+    patch: bool = False
+    patch_problem: str | None = None
+
+    @property
+    def n_added(self) -> int:
+        return len(self.added)
 
     @property
     def whitening(self) -> float:
@@ -115,6 +122,7 @@ class Candidate:
             self.delta_log_z >= MIN_DELTA_LOG_Z
             and self.whitening >= MIN_WHITENING
             and self.implausible is None
+            and self.patch_problem is None
         )
 
     @property
@@ -188,6 +196,12 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str,
     model = fit.model
     se = fit.stderr
     added = {n: (float(v), float(se[n])) for n, v in model.as_dict(fit.theta).items() if n in new_names}
+    # a step between two measured points (a term's ``step_at``) is flat between them by construction:
+    # the data pin it to that interval, which :func:`.prefer.step_evidence` checks; the other added
+    # parameters must be determined
+    ids = physics.split("+")
+    steps = {t.step_at for t in model.augmentations if t.id in ids and t.step_at}
+    new_names = [n for n in new_names if n not in steps]
     flat = sorted({n for f in (ev.flat if ev is not None else ()) for n in f if n in new_names})
     if flat:
         return (
@@ -197,15 +211,17 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str,
             + " (its evidence integrates that direction numerically)",
             added,
         )
-    if fit.cov_z is None:
+    if fit.cov_z is None and not steps:
         return (
             False,
             "the fit's Jacobian is rank-deficient: the data do not determine the new parameters",
             added,
         )
+    if fit.cov_z is None:  # the step's own column is zero: the posterior's flat directions decided
+        return True, "the step lies between two adjacent points; its size is determined by the data", added
     sd_z = np.sqrt(np.clip(np.diag(fit.cov_z), 0, None))
     bad = [n for n in new_names if sd_z[model.names.index(n)] > MAX_REL_SE]
-    notes = [t.identifiability for t in model.augmentations if t.id == physics and t.identifiability]
+    notes = [t.identifiability for t in model.augmentations if t.id in ids and t.identifiability]
     if bad:
         return False, f"not determined by the data: {', '.join(bad)} (relative sd > {MAX_REL_SE:g})", added
     if notes:
@@ -217,8 +233,11 @@ def fit_candidate(
     meas: Measurement, current: FitResult, physics: str, band: Band
 ) -> list[tuple[FitResult, Evidence]]:
     """``(fit, evidence)`` of ``physics`` added to ``current.model`` (module docstring); for
-    the eddy-current escalation one per escalated coil model. Fits that fail are left out."""
+    the eddy-current escalation one per escalated coil model; for a joint ``"a+b"`` the second
+    term added to the first's fit (``current`` is then that fit). Fits that fail are left out."""
     out = []
+    if "+" in physics:
+        physics = physics.split("+")[-1]
     if physics == EDDY_PHYSICS:
         # up the ladder; NL's ring count by evidence: more rings until one more ring loses
         best = -math.inf
@@ -249,6 +268,16 @@ def fit_candidate(
     ok = [f for f in fits if not f.info.get("resonance_mismatch")] or fits
     if not ok:
         return []
+    if term.step_at:
+        # a step's fits at different frequencies are different explanations: the best by χ² may put
+        # it where the data are smooth (another misfit pulls it), so each distinct one is ranked and
+        # the step evidence (:func:`.prefer.step_evidence`) tells them apart
+        distinct = []
+        for f in sorted(ok, key=lambda f: f.chi2):
+            w = f.model.as_dict(f.theta)[term.step_at]
+            if all(abs(math.log(w / f2.model.as_dict(f2.theta)[term.step_at])) > 1e-3 for f2 in distinct):
+                distinct.append(f)
+        return [(f, fit_log_evidence(meas, f)) for f in distinct]
     best = min(ok, key=lambda f: f.chi2)
     return [(best, fit_log_evidence(meas, best))]
 
@@ -262,20 +291,35 @@ def rank_candidates(
     physics_ids: list[str],
     progress=None,
     deadline: float | None = None,
+    joint: bool = True,
 ) -> list[Candidate]:
     """Every candidate of ``physics_ids`` for ``band``, best first (accepted first, then by
-    ``Δ log Z``)."""
+    ``Δ log Z``). Patches (:func:`.prefer.is_patch`) are accepted only with determined parameters
+    and, for a step, a discontinuity of their own (:func:`.prefer.step_evidence`). With ``joint``,
+    when no physical term alone is accepted or a patch leads, pairs of the best physical terms are
+    tried together (the second added to the first's fit)."""
+    from .prefer import is_patch, step_evidence
+
     before = band_chi2(meas, current.model, current.theta, band, sigma_rel)
     scan0 = band_scan(meas, current.model, current.theta, band, sigma_rel)
     n_band = 2 * (band.i_hi - band.i_lo + 1)
     out = []
-    for physics in physics_ids:
+    jobs = [(p, current) for p in physics_ids]
+    tried_joint = not joint
+    while jobs or not tried_joint:
+        if not jobs:
+            tried_joint = True
+            jobs = _joint_jobs(out, current)
+            if jobs and progress:
+                progress("  trying physical terms jointly: " + ", ".join(p for p, _ in jobs))
+            continue
+        physics, base = jobs.pop(0)
         if deadline is not None and time.process_time() > deadline:
             if progress:
                 progress(f"time budget reached: {physics} and later candidates not tried")
             break
         t0 = time.perf_counter()
-        for fit, ev in fit_candidate(meas, current, physics, band):
+        for fit, ev in fit_candidate(meas, base, physics, band):
             lz = ev.log_z
             if progress:
                 how = "" if not ev.fallback else f" [{ev.method}: {ev.note}]"
@@ -287,14 +331,23 @@ def rank_candidates(
             new_names = [n for n in fit.model.names if n not in current.model.names]
             ident, why, added = _identifiable(fit, new_names, physics, ev)
             values = fit.model.as_dict(fit.theta)
+            ids = physics.split("+")
             bad = next(
                 (
                     w
                     for t in fit.model.augmentations
-                    if t.id == physics and (w := t.implausible(values)) is not None
+                    if t.id in ids and (w := t.implausible(values)) is not None
                 ),
                 None,
             )
+            bad = bad or _at_prior_bound(fit, new_names)
+            if physics != EDDY_PHYSICS:  # a coil model's escalation re-fits R0 with the coil
+                bad = bad or _takes_r0(current, fit) or _moves_fs(current, fit, ids)
+            patch = is_patch(physics, fit)
+            problem = None
+            if patch:
+                problem = (None if ident else f"a patch with undetermined parameters ({why})")
+                problem = problem or step_evidence(meas, current, fit, physics)
             out.append(
                 Candidate(
                     physics,
@@ -312,10 +365,96 @@ def rank_candidates(
                     bad,
                     ev.method,
                     ev.note,
+                    patch,
+                    problem,
                 )
             )
-    # the eddy-current escalation: keep only its best rung (the ring count by evidence)
-    best_eddy = max((c for c in out if c.physics == EDDY_PHYSICS), key=lambda c: c.log_z, default=None)
-    out = [c for c in out if c.physics != EDDY_PHYSICS or c is best_eddy]
+    # the eddy-current escalation: keep only its best rung (the ring count by evidence), and its best
+    # physical rung (the first) beside a better patch rung
+    eddy = [c for c in out if c.physics == EDDY_PHYSICS]
+    best_eddy = max(eddy, key=lambda c: c.log_z, default=None)
+    best_phys = max((c for c in eddy if not c.patch), key=lambda c: c.log_z, default=None)
+    out = [c for c in out if c.physics != EDDY_PHYSICS or c is best_eddy or c is best_phys]
     out.sort(key=lambda c: (not c.accepted, -c.delta_log_z))
     return out
+
+
+#: physical terms (the best by Δ log Z) paired in the joint step
+JOINT_TOP = 3
+
+
+def _joint_jobs(out: list[Candidate], current: FitResult) -> list[tuple[str, FitResult]]:
+    """Pairs ``"a+b"`` of the best :data:`JOINT_TOP` physical single terms, each job the second term
+    to add to the first's fit, when no physical single is accepted or a patch leads."""
+    singles = [c for c in out if "+" not in c.physics and c.physics != EDDY_PHYSICS]
+    phys = sorted((c for c in singles if not c.patch and c.implausible is None
+                   and math.isfinite(c.delta_log_z) and c.delta_log_z > 0),
+                  key=lambda c: -c.delta_log_z)[:JOINT_TOP]
+    if len(phys) < 2:
+        return []
+    leader = max(out, key=lambda c: c.delta_log_z if math.isfinite(c.delta_log_z) else -math.inf)
+    if any(c.accepted and not c.patch for c in out) and not leader.patch:
+        return []
+    jobs = []
+    for i, a in enumerate(phys):
+        for b in phys[i + 1:]:
+            jobs.append((f"{a.physics}+{b.physics}", a.fit))
+    return jobs
+
+
+#: an added parameter within this fraction of its prior's range (sampling space) from a bound sits
+#: at the bound
+AT_BOUND = 1e-3
+
+
+def _at_prior_bound(fit: FitResult, new_names: list[str]) -> str | None:
+    """Why the fit is not this physics when an added parameter sits at its prior's bound (the data
+    push it past what the physics allows: the term absorbs another misfit); ``None`` otherwise."""
+    z = fit.model.params.to_z(np.asarray(fit.theta, float))
+    lo, hi = fit.model.params.bounds_z()
+    out = []
+    for n in new_names:
+        i = fit.model.names.index(n)
+        if not (math.isfinite(lo[i]) and math.isfinite(hi[i])):
+            continue
+        tol = AT_BOUND * (hi[i] - lo[i])
+        if z[i] - lo[i] < tol or hi[i] - z[i] < tol:
+            out.append(f"{n} = {fit.theta[i]:.4g}")
+    if not out:
+        return None
+    return (f"{', '.join(out)} at the bound of its prior: the data push the term past what its "
+            "physics allows (it absorbs another misfit)")
+
+
+#: a candidate taking R0 below this fraction of its value before (or above its inverse) is not
+#: accepted: the term takes over the DC resistance (a semi-inductance with n -> 0 is a resistor; on
+#: the LS10-44 run2 recording it took R0 to 0.01 % of itself). True terms added to a base that
+#: cannot fit them move R0 by up to -34 % in the concealed-effect benchmark (a vented box from model
+#: I), so the limit is a factor 2, not the 5 % the final-model warning uses
+R0_FACTOR_MAX = 0.5
+
+
+def _takes_r0(current: FitResult, fit: FitResult) -> str | None:
+    a, b = current.parameters.get("R0"), fit.parameters.get("R0")
+    if not a or a <= 0 or b is None or R0_FACTOR_MAX <= b / a <= 1 / R0_FACTOR_MAX:
+        return None
+    return (f"it moves R0 by {100 * (b - a) / a:+.1f} % ({a:.4g} -> {b:.4g} ohm), beyond a factor "
+            f"{1 / R0_FACTOR_MAX:g}: the term takes over the DC resistance instead of explaining the band")
+
+
+#: a candidate moving the resonance ω0 by more than this factor is not accepted unless one of its
+#: terms declares ``moves_resonance`` (a vented box: -42 % in the benchmark); every other true term
+#: in the concealed-effect benchmark moves fs by under 1 %, the truth study's pair by 1.1 %, while on
+#: the real tweeter a broad second mode took fs from 941 to 1303 Hz (the data's peak is near 924 Hz)
+FS_FACTOR_MAX = 1.2
+
+
+def _moves_fs(current: FitResult, fit: FitResult, ids: list[str]) -> str | None:
+    if any(t.moves_resonance for t in fit.model.augmentations if t.id in ids):
+        return None
+    a, b = current.parameters.get("omega0"), fit.parameters.get("omega0")
+    if not a or a <= 0 or b is None or 1 / FS_FACTOR_MAX <= b / a <= FS_FACTOR_MAX:
+        return None
+    return (f"it moves the resonance fs by {100 * (b - a) / a:+.1f} % ({a / (2 * math.pi):.4g} -> "
+            f"{b / (2 * math.pi):.4g} Hz): the term re-assigns the driver's resonance instead of explaining "
+            "the band")

@@ -217,6 +217,24 @@ class Term:
     parameters: ClassVar[tuple[ParamSpec, ...]] = ()
     #: an augmentation's band class (:data:`BANDS`): where discovery looks for its signature
     band: ClassVar[str] = ""
+    #: a generic, flexible patch (issue 23): discovery names it only with a margin of evidence over
+    #: the physical terms for the same band, identifiable parameters and, with :attr:`step_at`, a
+    #: discontinuity between adjacent measured points
+    generic: ClassVar[bool] = False
+    #: the parameter holding the frequency [rad/s] of a step the term puts between two points
+    step_at: ClassVar[str] = ""
+    #: ``(damping parameter, limit)``: a fitted damping ratio below the limit makes a generic mode a
+    #: narrow, physical one (a broad one is a patch)
+    narrow_when: ClassVar[tuple] = ()
+    #: setups (``free-air``, ``sealed``, ``vented``, ``shaker``, ``unknown``) in which the term can
+    #: exist; empty: every setup
+    requires_setup: ClassVar[tuple[str, ...]] = ()
+    #: the data signature the term needs before it is tried when the setup is ``unknown`` (a name of
+    #: discovery's signature checks, e.g. ``"two_impedance_maxima"``); empty: none
+    unknown_setup_needs: ClassVar[str] = ""
+    #: the term re-places the driver's own resonance (a vented box splits it into two peaks), so
+    #: discovery lets it move fs beyond :data:`~bayes_emt.discovery.name.FS_FACTOR_MAX`
+    moves_resonance: ClassVar[bool] = False
 
     # ---- construction and serialisation ---------------------------------------------------------
     @classmethod

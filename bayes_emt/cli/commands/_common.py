@@ -120,6 +120,29 @@ def add_data_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--omega-max", type=positive_float, default=None, help="ignore points above (rad/s)")
 
 
+def band_hz(text: str) -> tuple[float, float]:
+    """``F1:F2`` (Hz, F1 < F2, both positive) of ``--exclude-band``."""
+    parts = text.split(":")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        f1, f2 = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--exclude-band {text!r}: expected F1:F2 in Hz, e.g. 5200:5600") from None
+    if not (math.isfinite(f1) and math.isfinite(f2) and 0 < f1 < f2):
+        raise argparse.ArgumentTypeError(f"--exclude-band {text!r}: need 0 < F1 < F2 (Hz)")
+    return f1, f2
+
+
+def add_exclude_band_arg(p: argparse.ArgumentParser) -> None:
+    """``--exclude-band F1:F2`` (Hz, repeatable): points left out of the fit (a narrow feature no
+    lumped model explains: cone break-up, a surround dip)."""
+    p.add_argument("--exclude-band", type=band_hz, action="append", default=None, metavar="F1:F2",
+                   help="leave out the points between F1 and F2 Hz (repeatable), e.g. a cone break-up "
+                        "diagnose reported as an unmodelled narrow resonance")
+
+
 def add_model_args(p: argparse.ArgumentParser, *, required: bool = True) -> None:
     p.add_argument("--model", required=required, metavar="SPEC",
                    help=f"model spec: a coil model ({', '.join(MODEL_NAMES)}, SPEC §2) optionally + physics "

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from ._common import (
     add_data_args,
+    add_exclude_band_arg,
     add_model_args,
     add_output_args,
     add_parser,
@@ -30,6 +31,7 @@ EXAMPLES = """\
 bayes-emt diagnose speaker.zma  (start from the model the evidence prefers)
 bayes-emt diagnose speaker.zma --model UD --json diagnosis.json --plot figures/
 bayes-emt diagnose bench.csv --model NL --rings 5 --max-rounds 2 --quiet
+bayes-emt diagnose woofer.zma --setup free-air --exclude-band 5200:5600
 bayes-emt diagnose speaker.zma --model UD --time-budget 0  (no time budget: the same result on any machine)
 """
 
@@ -40,6 +42,12 @@ def register(sub) -> None:
     p.add_argument("data", help="measurement file (.zma, CSV/TSV with header, .s1p)")
     add_model_args(p, required=False)
     add_data_args(p)
+    add_exclude_band_arg(p)
+    p.add_argument("--setup", choices=["free-air", "sealed", "vented", "shaker", "unknown"],
+                   default="unknown",
+                   help="how the transducer was mounted (default unknown): free-air, sealed and shaker rule "
+                        "out a port; unknown tries a port only when |Z| has two maxima with a minimum "
+                        "between them (each maximum >= 10 %% above it, within a factor 10 in frequency)")
     p.add_argument("--json", default=None, metavar="OUT", help="write the diagnosis as JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write residual and Bode figures here")
     p.add_argument("--seed", type=seed, default=0,
@@ -78,6 +86,8 @@ def run(args) -> int:
         seed=args.seed,
         max_rounds=args.max_rounds,
         time_budget=args.time_budget or None,
+        setup=args.setup,
+        exclude_band=args.exclude_band,
         progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)),
     )
     print(

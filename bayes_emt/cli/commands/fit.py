@@ -16,6 +16,7 @@ from __future__ import annotations
 from ..paths import check_outputs
 from ._common import (
     add_data_args,
+    add_exclude_band_arg,
     add_model_args,
     add_output_args,
     add_parser,
@@ -41,6 +42,7 @@ def register(sub) -> None:
     p.add_argument("data", help="measurement file (.zma, CSV/TSV with header, .s1p)")
     add_model_args(p)
     add_data_args(p)
+    add_exclude_band_arg(p)
     p.add_argument("--procedure", choices=["polished", "paper"], default="polished",
                    help="polished (default): the paper's two steps, then all parameters with relative "
                         "residuals; paper: the paper's two steps only (R0 and omega0 from the "
@@ -68,6 +70,7 @@ def run(args) -> int:
     check_outputs([("--json", args.json)], [("DATA", args.data), ("--priors", args.priors)])
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
                             quantity=args.quantity).select(args.omega_min, args.omega_max)
+    meas = meas.exclude_bands(args.exclude_band)
     model = model_from_args(args)
     re_reading = args.re
     if args.priors:

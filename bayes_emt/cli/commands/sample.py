@@ -20,6 +20,7 @@ from pathlib import Path
 from ..paths import check_outputs
 from ._common import (
     add_data_args,
+    add_exclude_band_arg,
     add_model_args,
     add_output_args,
     add_re_option,
@@ -62,6 +63,7 @@ def register(sub) -> None:
     p.add_argument("data", help="measurement file")
     add_model_args(p)
     add_data_args(p)
+    add_exclude_band_arg(p)
     p.add_argument("--out", default=None,
                    help="netCDF DataTree output (default: DATA stem + _MODEL.nc in the current folder)")
     p.add_argument("--checkpoint", default=None,
@@ -123,8 +125,10 @@ def run(args) -> int:
     check_checkpoint(ckpt, resume=args.resume, overwrite=args.overwrite)
     opts = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity}
     meas = read_measurement(args.data, **opts).select(args.omega_min, args.omega_max)
+    meas = meas.exclude_bands(args.exclude_band)
     loaded = None if args.loaded is None else read_measurement(args.loaded, **opts).select(args.omega_min,
                                                                                           args.omega_max)
+    loaded = None if loaded is None else loaded.exclude_bands(args.exclude_band)
     noise = noise_param_set(args.likelihood, nu)
     physical = None
     if args.priors:

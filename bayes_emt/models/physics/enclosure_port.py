@@ -22,6 +22,9 @@ class EnclosurePort(Term):
     stage = "motional_parallel"
     augmentation = True
     band = "mechanical"
+    requires_setup = ("vented", "unknown")
+    unknown_setup_needs = "two_impedance_maxima"
+    moves_resonance = True
     physics = "enclosure_port"
     description = ("vented box or passive radiator: box compliance and port mass coupled to the driver's "
                    "motional branch")

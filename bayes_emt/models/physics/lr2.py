@@ -22,6 +22,7 @@ class LR2(Term):
     id = "lr2"
     augmentation = True
     band = "coil"
+    generic = True
     coil = True
     physics = "lr2"
     description = "LR-2 coil: a second inductance L2 shunted by R2 in series with the coil"

@@ -23,6 +23,8 @@ class MeasurementArtifact(Term):
     augmentation = True
     band = "anywhere"
     device = False
+    generic = True
+    step_at = "omegas"
     physics = "measurement_artifact"
     description = "the instrument, not the device: a range switch or calibration boundary"
     signature = "a step in magnitude and phase at one frequency"

@@ -21,6 +21,8 @@ class SecondResonance(Term):
     id = "second_resonance"
     augmentation = True
     band = "anywhere"
+    generic = True
+    narrow_when = ("zeta2", 0.05)
     physics = "second_resonance"
     description = "another mechanical mode in series (rocking, cone break-up or fixture mode)"
     signature = "a narrow peak and phase swing of width about 2 zeta2 omega2 at omega2"

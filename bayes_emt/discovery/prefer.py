@@ -1,0 +1,279 @@
+"""Right physics before flexible physics (issue 23): setups, patch terms, and where a finding acts.
+
+Brynjarsdóttir & O'Hagan (2014): a flexible term absorbs whatever misfit a model leaves, the fit
+improves and the physics gets worse. Discovery therefore treats the terms a registry class marks
+``generic`` (:attr:`~bayes_emt.models.term.Term.generic`: an instrument step, a broad extra mode, an
+extra coil section) and NL ring counts above the first rung of the eddy-current escalation as
+**patches**, which must earn their place (:func:`patch_problem`, :func:`choose`):
+
+* their added parameters are determined by the data (relative sd below ``MAX_REL_SE``);
+* a step term (:attr:`~bayes_emt.models.term.Term.step_at`) needs evidence of its own: the measured
+  points either side of the step frequency are discontinuous beyond the noise (:func:`step_evidence`);
+* a mode term with :attr:`~bayes_emt.models.term.Term.narrow_when` is a patch only when broad (its
+  fitted damping ratio at or above the limit); a narrow mode is physics;
+* a patch is chosen over the best *physical* candidate for the same band only when its
+  ``Δ log Z`` exceeds that candidate's by :data:`PATCH_MARGIN` nats. Within that margin the data do
+  not tell them apart and the physical one is kept (a warning says so).
+
+**Setups** (:data:`SETUPS`): a term declaring :attr:`~bayes_emt.models.term.Term.requires_setup` is
+tried only in those setups (a port needs a vented box: never in free air, a sealed box or on a
+shaker). With ``unknown`` a term may further need a data signature
+(:attr:`~bayes_emt.models.term.Term.unknown_setup_needs`): ``"two_impedance_maxima"``
+(:func:`two_impedance_maxima`): |Z|, smoothed over 5 points, has two interior local maxima within a
+factor 10 in frequency of each other, each standing at least 10 % (0.1 in ln|Z|) above the minimum
+between them — a vented box's two peaks around the port tuning.
+
+**Where a finding acts** (:func:`change_band`): the points where adding the term lowers the squared
+normalised residual, smoothed over 8 points; the band holds the central 90 % of that improvement.
+Wider than two decades it is reported as broadband with its shape (where the change concentrates
+and whether it grows or falls with frequency).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import signal, stats
+
+from ..estimation.results import FitResult
+from ..measurement import Measurement
+from ..models import EDDY_PHYSICS, TERMS
+from ..models.residual import relative_residual
+from .candidates import RING_COUNTS
+
+__all__ = [
+    "SETUPS",
+    "PATCH_MARGIN",
+    "NEAR_TIE",
+    "check_setup",
+    "setup_excludes",
+    "two_impedance_maxima",
+    "is_patch",
+    "step_evidence",
+    "change_band",
+    "BROADBAND_DECADES",
+    "choose",
+]
+
+SETUPS: tuple[str, ...] = ("free-air", "sealed", "vented", "shaker", "unknown")
+#: nats by which a patch's Δ log Z must exceed the best physical candidate's for the same band. A
+#: patch adds 2-3 parameters with broad priors whose Occam factor Laplace already charges; the margin
+#: is prior odds of e^10 ≈ 2·10⁴ against a patch, the ``ln B > 10`` a real recording's structured
+#: residual clears for almost any flexible term but that a patch clears over the physics only when
+#: the physics cannot explain the band (Kass & Raftery's ``2 ln B > 10`` "very strong" doubled)
+PATCH_MARGIN = 10.0
+#: nats within which two candidates of the same kind count as tied (Kass & Raftery: "not worth more
+#: than a bare mention"); the simpler one (fewer added parameters) is kept
+NEAR_TIE = 1.0
+#: a finding acting over more than this many decades is broadband
+BROADBAND_DECADES = 2.0
+#: a step needs this chi-square (2 dof: real and imaginary) of the local step estimate (p = 1e-4)
+STEP_CHI2 = float(stats.chi2.ppf(1 - 1e-4, 2))
+_STEP_HALF = 6  # points either side of a step in its local test
+
+
+def check_setup(setup: str) -> str:
+    if setup not in SETUPS:
+        raise ValueError(f"setup {setup!r}: choose one of {', '.join(SETUPS)}")
+    return setup
+
+
+def two_impedance_maxima(meas: Measurement) -> tuple[bool, str]:
+    """Whether |Z| shows two maxima with a minimum between them (module docstring), and the words."""
+    logz = np.log(np.abs(meas.Z))
+    k = 5
+    if logz.size < 3 * k:
+        return False, "too few points for two impedance maxima"
+    pad = np.pad(logz, k // 2, mode="edge")
+    sm = np.median(np.lib.stride_tricks.sliding_window_view(pad, k), axis=-1)
+    pk, prop = signal.find_peaks(sm, prominence=0.1)
+    f = meas.f_hz
+    pk = [int(i) for i in pk if 0 < i < sm.size - 1]
+    for a in range(len(pk)):
+        for b in range(a + 1, len(pk)):
+            i, j = pk[a], pk[b]
+            if f[j] / f[i] > 10.0:
+                continue
+            dip = i + int(np.argmin(sm[i : j + 1]))
+            if min(sm[i], sm[j]) - sm[dip] >= 0.1:
+                return True, (f"|Z| has maxima at {f[i]:.4g} and {f[j]:.4g} Hz with a minimum at "
+                              f"{f[dip]:.4g} Hz between them")
+    return False, "|Z| has no two maxima with a minimum between them (no vented-box signature)"
+
+
+_SIGNATURES = {"two_impedance_maxima": two_impedance_maxima}
+
+
+def setup_excludes(physics: str, setup: str, meas: Measurement) -> str | None:
+    """Why ``physics`` is not tried in ``setup`` on ``meas`` (module docstring); ``None``: it is."""
+    cls = TERMS.get(physics)
+    if cls is None:
+        return None
+    if cls.requires_setup and setup not in cls.requires_setup:
+        need = " or ".join(s for s in cls.requires_setup if s != "unknown")
+        return f"{physics} needs a {need} setup, not {setup}"
+    if setup == "unknown" and cls.unknown_setup_needs:
+        ok, why = _SIGNATURES[cls.unknown_setup_needs](meas)
+        if not ok:
+            return f"{physics} not tried with the setup unknown: {why}"
+    return None
+
+
+def _terms(physics: str, fit: FitResult):
+    ids = physics.split("+")
+    return [t for t in fit.model.augmentations if t.id in ids]
+
+
+def is_patch(physics: str, fit: FitResult) -> bool:
+    """A generic patch (module docstring): a ``generic`` term not made physical by a narrow fitted
+    width, or an NL rung above the eddy-current escalation's first."""
+    if physics == EDDY_PHYSICS:
+        rings = getattr(fit.model, "rings", None)
+        return rings is not None and rings > RING_COUNTS[0]
+    values = fit.model.as_dict(fit.theta)
+    for t in _terms(physics, fit):
+        if not t.generic:
+            continue
+        if t.narrow_when:
+            name, limit = t.narrow_when
+            if name in values and values[name] < limit:
+                continue
+        return True
+    return False
+
+
+def step_evidence(meas: Measurement, current: FitResult, fit: FitResult, physics: str) -> str | None:
+    """For a term that puts a step between two points (:attr:`~bayes_emt.models.term.Term.step_at`):
+    ``None`` when the measured points are discontinuous there, else why not. In
+    ``ln(Y/Y_current)`` (the current fit removes the resonance's shape) over ``_STEP_HALF`` points
+    either side, a quadratic in ln ω plus a step is fitted to each part; the step must have
+    ``χ²₂ ≥`` :data:`STEP_CHI2` against the point noise (σ from second differences) and at least half
+    the fitted step's size along its direction."""
+    values = fit.model.as_dict(fit.theta)
+    for t in _terms(physics, fit):
+        if not t.step_at:
+            continue
+        ws = values[t.step_at]
+        k = int(np.searchsorted(meas.omega, ws))  # first point above the step
+        h = _STEP_HALF
+        if k < h or k > meas.n_points - h:
+            return (f"{physics}: its step at {ws / (2 * math.pi):.4g} Hz lies within {h} points of the "
+                    "data's end")
+        sl = slice(k - h, k + h)
+        with np.errstate(all="ignore"):
+            Yc = current.model.bind(meas.omega).admittance(meas.omega, current.theta)
+        lr = np.log(meas.Y[sl] / Yc[sl])
+        x = np.log(meas.omega[sl] / ws)
+        A = np.stack([np.ones_like(x), x, x * x, (np.arange(2 * h) >= h).astype(float)], axis=1)
+        coef, *_ = np.linalg.lstsq(A, np.stack([lr.real, lr.imag], axis=1), rcond=None)
+        step = complex(coef[3, 0], coef[3, 1])
+        # point noise: second differences of the residual over the whole record
+        with np.errstate(all="ignore"):
+            rel = relative_residual(current.model, current.theta, meas)
+        d2 = np.diff(np.stack([rel.real, rel.imag]), n=2, axis=-1)
+        sig = float(1.4826 * np.median(np.abs(d2 - np.median(d2, axis=-1, keepdims=True))) / math.sqrt(6))
+        var = float(np.linalg.pinv(A.T @ A)[3, 3]) * sig * sig
+        chi2 = abs(step) ** 2 / max(var, 1e-300)
+        fitted = [p for p in t.params.names if p != t.step_at]
+        # the fitted step in ln Y: ln(1 + δ) + jψ for a gain-and-phase step (first two other params)
+        target = complex(math.log1p(values[fitted[0]]), values[fitted[1]]) if len(fitted) >= 2 else step
+        along = (step * target.conjugate()).real / max(abs(target), 1e-300)
+        if chi2 < STEP_CHI2 or along < 0.5 * abs(target):
+            return (f"{physics}: no discontinuity between the measured points at "
+                    f"{ws / (2 * math.pi):.4g} Hz (local step {100 * abs(step):.2g} % vs the fitted "
+                    f"{100 * abs(target):.2g} %, chi2 {chi2:.3g} < {STEP_CHI2:.3g} needed): a smooth "
+                    "misfit, not an instrument step")
+    return None
+
+
+def change_band(meas: Measurement, before: FitResult, after: FitResult, sigma_rel: float) -> dict:
+    """Where adding a term changes the fit beyond the noise (module docstring): ``{"i_lo", "i_hi",
+    "lo", "hi"}`` [index, rad/s], ``broadband``, ``decades`` and ``shape`` (words)."""
+    with np.errstate(all="ignore"):
+        rb = relative_residual(before.model, before.theta, meas)
+        ra = relative_residual(after.model, after.theta, meas)
+    gain = (np.abs(rb) ** 2 - np.abs(ra) ** 2) / max(sigma_rel, 1e-12) ** 2
+    gain = np.where(np.isfinite(gain), gain, 0.0)
+    L = min(8, gain.size)
+    sm = np.convolve(gain, np.ones(L) / L, mode="same")
+    pos = np.clip(sm, 0, None)
+    n = meas.n_points
+    if pos.sum() <= 0:
+        i_lo, i_hi = 0, n - 1
+    else:
+        c = np.cumsum(pos) / pos.sum()
+        i_lo = int(np.searchsorted(c, 0.05))
+        i_hi = int(min(np.searchsorted(c, 0.95), n - 1))
+    lo, hi = float(meas.omega[i_lo]), float(meas.omega[i_hi])
+    dec = math.log10(hi / lo) if hi > lo else 0.0
+    ipk = int(np.argmax(sm))
+    shape = ""
+    broadband = dec > BROADBAND_DECADES
+    if broadband:
+        # how the improvement spreads: its share per decade, low vs high half of the band
+        mid = math.sqrt(lo * hi)
+        low = float(pos[(meas.omega >= lo) & (meas.omega < mid)].sum())
+        high = float(pos[(meas.omega >= mid) & (meas.omega <= hi)].sum())
+        trend = ("grows with frequency" if high > 2 * low else "falls with frequency" if low > 2 * high
+                 else "spread evenly")
+        shape = (f"broadband: the fit changes beyond the noise over {dec:.1f} decades "
+                 f"({lo / (2 * math.pi):.4g}-{hi / (2 * math.pi):.4g} Hz), most at "
+                 f"{meas.f_hz[ipk]:.4g} Hz; the improvement {trend}")
+    return {"i_lo": i_lo, "i_hi": i_hi, "lo": lo, "hi": hi, "decades": dec, "broadband": broadband,
+            "shape": shape, "peak_hz": float(meas.f_hz[ipk])}
+
+
+def choose(ranked) -> tuple[object | None, list[str]]:
+    """The candidate a band gets (module docstring) and the notes saying what was weighed: among the
+    accepted, the best physical one (a joint pair only when it beats the best single by
+    :data:`PATCH_MARGIN`; within :data:`NEAR_TIE` the one adding fewer parameters), unless a patch
+    beats it by :data:`PATCH_MARGIN` (or leads a physical one whose parameters the data do not
+    determine: an undetermined physical term is no better an explanation); a patch alone when no
+    physical candidate is accepted."""
+    acc = [c for c in ranked if c.accepted]
+    if not acc:
+        return None, []
+    notes: list[str] = []
+    phys = [c for c in acc if not c.patch]
+    pick = None
+    if phys:
+        pick = max(phys, key=lambda c: c.delta_log_z)
+        singles = [c for c in phys if "+" not in c.physics]
+        if "+" in pick.physics and singles:
+            best_single = max(singles, key=lambda c: c.delta_log_z)
+            if pick.delta_log_z - best_single.delta_log_z < PATCH_MARGIN:
+                notes.append(
+                    f"{pick.physics} jointly gains {pick.delta_log_z - best_single.delta_log_z:.1f} nats "
+                    "over "
+                    f"{best_single.physics} alone (< {PATCH_MARGIN:g}): the simpler one is kept")
+                pick = best_single
+        ties = [c for c in phys if c is not pick and c.physics != pick.physics
+                and pick.delta_log_z - c.delta_log_z < NEAR_TIE]
+        if ties:
+            simplest = min([pick, *ties], key=lambda c: (c.n_added, -c.delta_log_z))
+            notes.append(
+                "the data cannot tell " + ", ".join(c.physics for c in [pick, *ties])
+                + f" apart (within {NEAR_TIE:g} nat of log Z); the simplest, {simplest.physics}, is kept")
+            pick = simplest
+    patches = [c for c in acc if c.patch]
+    if patches:
+        bp = max(patches, key=lambda c: c.delta_log_z)
+        if pick is None:
+            notes.append(f"{bp.physics} is a generic patch named because no physical term explains the band")
+            return bp, notes
+        lead = bp.delta_log_z - pick.delta_log_z
+        if lead > 0 and not pick.identifiable:
+            notes.append(f"the patch {bp.physics} fits {lead:.1f} nats better than {pick.physics}, whose "
+                         "parameters the data do not determine, while its own are determined: it is named")
+            return bp, notes
+        if lead >= PATCH_MARGIN:
+            notes.append(f"the patch {bp.physics} beats the best physical term {pick.physics} by "
+                         f"{lead:.1f} nats (>= the margin {PATCH_MARGIN:g})")
+            return bp, notes
+        if lead > 0:
+            notes.append(
+                f"the patch {bp.physics} fits {lead:.1f} nats better than {pick.physics}, within the "
+                f"{PATCH_MARGIN:g}-nat margin a patch needs: the data cannot tell them apart, the physical "
+                f"{pick.physics} is kept")
+    return pick, notes

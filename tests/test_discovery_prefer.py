@@ -1,0 +1,179 @@
+"""Right physics before flexible physics (issue 23): setups and the port's signature, patch terms and
+their margin, a step's own evidence, local finding bands, narrow resonances, ``exclude_band``."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from bayes_emt.cli import main
+from bayes_emt.discovery.diagnose import moved_parameters
+from bayes_emt.discovery.locate import Band
+from bayes_emt.discovery.prefer import (
+    PATCH_MARGIN,
+    change_band,
+    choose,
+    is_patch,
+    setup_excludes,
+    step_evidence,
+    two_impedance_maxima,
+)
+from bayes_emt.discovery.shape import describe_shape
+from bayes_emt.errors import DataFormatError
+from bayes_emt.estimation.fitting import fit_admittance
+from bayes_emt.io.simulate import simulate
+from bayes_emt.models import TERMS, parse_model_spec
+from bayes_emt.reference import PAPER_TABLES
+
+GRID = np.geomspace(1e1, 1e5, 300)
+# the concealed-effect benchmark's loudspeaker (scripts/discovery_benchmark.py): fs 45 Hz, Qms 5
+SPEAKER_GRID = 2 * np.pi * np.geomspace(5.0, 2.0e4, 500)
+SPEAKER = {"zeta": 0.1, "omega0": 2 * np.pi * 45.0, "phi": 7.0 / np.sqrt(0.02), "R0": 6.0, "L0": 5e-4}
+
+
+def test_the_patch_and_setup_knowledge_lives_on_the_term_classes():
+    patches = {i for i, c in TERMS.items() if c.augmentation and c.generic}
+    assert patches == {"measurement_artifact", "second_resonance", "lr2"}
+    assert TERMS["measurement_artifact"].step_at == "omegas"
+    assert TERMS["enclosure_port"].requires_setup == ("vented", "unknown")
+    assert all(not c.requires_setup for i, c in TERMS.items() if i != "enclosure_port")
+    assert {i for i, c in TERMS.items() if c.moves_resonance} == {"enclosure_port"}
+
+
+def _vented():
+    model = parse_model_spec("I+enclosure_port")
+    vals = {**SPEAKER, "Lb": 0.02, "omegab": 2 * np.pi * 35.0, "zetab": 0.05}
+    return simulate(model, vals, SPEAKER_GRID, noise=0.003, seed=2)
+
+
+def test_a_port_needs_a_vented_setup_or_its_two_maxima():
+    vented = _vented()
+    plain = simulate(parse_model_spec("I"), SPEAKER, SPEAKER_GRID, noise=0.003, seed=2)
+    ok, why = two_impedance_maxima(vented)
+    assert ok and "maxima" in why
+    assert not two_impedance_maxima(plain)[0]
+    assert setup_excludes("enclosure_port", "vented", plain) is None
+    assert setup_excludes("enclosure_port", "unknown", vented) is None
+    for setup in ("free-air", "sealed", "shaker"):
+        assert "vented" in setup_excludes("enclosure_port", setup, vented)
+    assert "unknown" in setup_excludes("enclosure_port", "unknown", plain)
+    assert setup_excludes("semi_inductance", "free-air", plain) is None
+
+
+def _cand(physics, dlz, patch=False, n_added=2, accepted=True, identifiable=True):
+    return SimpleNamespace(physics=physics, delta_log_z=dlz, patch=patch, n_added=n_added, accepted=accepted,
+                           identifiable=identifiable)
+
+
+def test_a_patch_needs_the_margin_over_the_best_physical_term():
+    phys = _cand("semi_inductance", 100.0)
+    near = _cand("measurement_artifact", 100.0 + PATCH_MARGIN - 0.5, patch=True, n_added=3)
+    pick, notes = choose([near, phys])
+    assert pick is phys and any("cannot tell them apart" in n for n in notes)
+    # a physical term the data do not determine does not hold off a determined patch that fits better
+    vague = _cand("semi_inductance", 100.0, identifiable=False)
+    assert choose([near, vague])[0] is near
+    far = _cand("measurement_artifact", 100.0 + PATCH_MARGIN + 0.5, patch=True, n_added=3)
+    assert choose([far, phys])[0] is far
+    # no physical term accepted: the patch is named, and said to be a patch
+    pick, notes = choose([far, _cand("semi_inductance", 1.0, accepted=False)])
+    assert pick is far and "patch" in notes[0]
+    # a joint pair must beat the best single physical term by the margin
+    pair = _cand("semi_inductance+suspension_creep", 100.0 + PATCH_MARGIN - 1, n_added=3)
+    assert choose([pair, phys])[0] is phys
+    pair = _cand("semi_inductance+suspension_creep", 100.0 + PATCH_MARGIN + 1, n_added=3)
+    assert choose([pair, phys])[0] is pair
+    # physical terms tied within a nat: the one adding fewer parameters
+    one = _cand("winding_capacitance", 99.5, n_added=1)
+    assert choose([phys, one])[0] is one
+    assert choose([_cand("x", 3.0, accepted=False)]) == (None, [])
+
+
+def test_a_broad_mode_is_a_patch_a_narrow_one_physics():
+    model = parse_model_spec("UD+second_resonance")
+
+    def fit(zeta2):
+        vals = {**PAPER_TABLES["UD"], "zeta2": zeta2, "omega2": 2e4, "phi2": 3.0}
+        return SimpleNamespace(model=model, theta=model.vector(vals))
+
+    assert is_patch("second_resonance", fit(0.3))
+    assert not is_patch("second_resonance", fit(0.01))
+    assert not is_patch("winding_capacitance", SimpleNamespace(
+        model=parse_model_spec("UD+winding_capacitance"),
+        theta=parse_model_spec("UD+winding_capacitance").vector({**PAPER_TABLES["UD"], "Cp": 1e-8})))
+
+
+def test_an_instrument_step_needs_a_discontinuity_between_measured_points():
+    """A 2 % step at 3000 rad/s (noise 0.2 %) is a discontinuity; the same term fitted to a smooth
+    semi-inductance misfit is not."""
+    art = parse_model_spec("UD+measurement_artifact")
+    vals = {**PAPER_TABLES["UD"], "omegas": 3000.0, "delta_s": 0.02, "psi_s": 0.02}
+    meas = simulate(art, vals, GRID, noise=0.002, seed=4)
+    base = fit_admittance(meas, parse_model_spec("UD"))
+    true_fit = SimpleNamespace(model=art, theta=art.vector(vals))
+    assert step_evidence(meas, base, true_fit, "measurement_artifact") is None
+    smooth = simulate(parse_model_spec("UD+semi_inductance"),
+                      {**PAPER_TABLES["UD"], "K_semi": 0.02, "n_semi": 0.7}, GRID, noise=0.002, seed=4)
+    base = fit_admittance(smooth, parse_model_spec("UD"))
+    fake = SimpleNamespace(model=art, theta=art.vector({**base.parameters, "omegas": 3000.0,
+                                                        "delta_s": 0.02, "psi_s": 0.02}))
+    why = step_evidence(smooth, base, fake, "measurement_artifact")
+    assert why is not None and "no discontinuity" in why
+
+
+def test_a_finding_band_is_where_the_fit_changes_and_moves_carry_standard_errors():
+    aug = parse_model_spec("UD+winding_capacitance")
+    meas = simulate(aug, {**PAPER_TABLES["UD"], "Cp": 2e-8}, GRID, noise=0.003, seed=3)
+    before = fit_admittance(meas, parse_model_spec("UD"))
+    after = fit_admittance(meas, aug)
+    where = change_band(meas, before, after, 0.003)
+    # a terminal capacitance acts at the top of the record: the band sits there, under 2 decades
+    assert where["hi"] > 5e4 and where["lo"] > 1e3 and not where["broadband"]
+    moved = moved_parameters(before, after)
+    assert {"R0", "fs_hz", "Qms"} <= set(moved)
+    for d in moved.values():
+        assert d["stderr_before"] is None or d["stderr_before"] > 0
+        assert d["beyond_stderr"] in (True, False, None)
+
+
+def test_a_narrow_feature_is_an_unmodelled_narrow_resonance_never_a_negative_damping_ratio():
+    w0 = 2 * np.pi * 5400.0
+    band = Band(2 * np.pi * 5200, 2 * np.pi * 5600, 10, 16, ("real",), 80.0, 20.0, w0)
+    # Levy's fit may put the pole pair in the right half-plane
+    shape = {"poles_rad_s": [[+w0 * 6.2e-5, w0], [+w0 * 6.2e-5, -w0]], "zeros_rad_s": [],
+             "rms_residual_rel": 0.01}
+    text = describe_shape(band, shape)
+    assert text.startswith("unmodelled narrow resonance at 5400 Hz, Q ≈")
+    assert "--exclude-band 5200:5600" in text and "damping ratio -" not in text
+    wide = Band(2 * np.pi * 100, 2 * np.pi * 5000, 0, 100, ("imag",), 80.0, 20.0, 2 * np.pi * 700)
+    shape = {"poles_rad_s": [[+0.2 * w0, w0], [+0.2 * w0, -w0]], "zeros_rad_s": [], "rms_residual_rel": 0.01}
+    text = describe_shape(wide, shape)
+    assert "damping ratio 0.2" in text and "damping ratio -" not in text
+    # a sharp pole in a wide band: not a narrow band, but the pole's own band is suggested
+    sharp = {"poles_rad_s": [[-w0 / 100, w0], [-w0 / 100, -w0]], "zeros_rad_s": [], "rms_residual_rel": 0.01}
+    text = describe_shape(Band(2 * np.pi * 10, 2 * np.pi * 1e4, 0, 100, ("real",), 80.0, 20.0, w0), sharp)
+    assert text.startswith("unexplained broadband") and "sharp (Q ≈ 50)" in text
+    assert "--exclude-band 5238:5562" in text  # f (1 ± 1.5/Q)
+    sharper = {"poles_rad_s": [[-w0 / 1e6, w0], [-w0 / 1e6, -w0]], "zeros_rad_s": [],
+               "rms_residual_rel": 0.01}
+    text = describe_shape(Band(2 * np.pi * 10, 2 * np.pi * 1e4, 0, 100, ("real",), 80.0, 20.0, w0), sharper)
+    assert "--exclude-band 5346:5454" in text  # at least ±1 % of f
+
+
+def test_exclude_bands_drops_the_points_and_says_so(tmp_path, capsys):
+    meas = simulate(parse_model_spec("UD"), PAPER_TABLES["UD"], GRID, noise=0.003, seed=1)
+    f = meas.f_hz
+    out = meas.exclude_bands([(100.0, 200.0), (1000.0, 1500.0)])
+    inside = ((f >= 100) & (f <= 200)) | ((f >= 1000) & (f <= 1500))
+    assert out.n_points == meas.n_points - np.count_nonzero(inside) and np.count_nonzero(inside) > 0
+    assert not np.any((out.f_hz >= 100) & (out.f_hz <= 200))
+    assert out.meta["excluded_bands_hz"] == [[100.0, 200.0], [1000.0, 1500.0]]
+    assert meas.exclude_bands(None) is meas
+    with pytest.raises(DataFormatError, match="f1 < f2"):
+        meas.exclude_bands([(200.0, 100.0)])
+    with pytest.raises(DataFormatError, match="leaves"):
+        meas.exclude_bands([(1.0, 1e6)])
+    for cmd in ("fit", "sample", "diagnose"):
+        assert main([cmd, "x.zma", "--model", "UD", "--exclude-band", "5:3"]) == 2
+        assert "--exclude-band" in capsys.readouterr().err
+    assert main(["diagnose", "x.zma", "--setup", "outdoors"]) == 2
