@@ -75,10 +75,12 @@ def read(path: str | Path, **options) -> Measurement:
 
 
 def fit(meas: Measurement | str | Path, model: Model | str = "UD", *, rings: int | None = None,
-        **options) -> FitResult:
+        exclude_band=None, **options) -> FitResult:
     """Automatic initial estimate + two-step least squares of ``model`` (a spec string or Model)
-    to ``meas`` (:func:`~bayes_emt.estimation.fitting.fit_admittance` for ``options``)."""
-    return fit_admittance(as_measurement(meas), as_model(model, rings=rings), **options)
+    to ``meas`` (:func:`~bayes_emt.estimation.fitting.fit_admittance` for ``options``: ``re=(ohm,
+    sd)`` an ohmmeter reading, ...); ``exclude_band=[(f1_hz, f2_hz), ...]`` leaves those points out."""
+    return fit_admittance(as_measurement(meas).exclude_bands(exclude_band), as_model(model, rings=rings),
+                          **options)
 
 
 def sample(meas: Measurement | str | Path, model: Model | str | None = None, *, fit: FitResult | None = None,
@@ -133,14 +135,18 @@ def compare(meas: Measurement | str | Path, models: Sequence[str | Model] = ("I"
 
 def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *,
              fit: FitResult | None = None, seed: int = 0, max_rounds: int = 4,
-             time_budget: float | None = 240.0, progress=None) -> Diagnosis:
+             time_budget: float | None = 240.0, setup: str = "unknown", exclude_band=None,
+             progress=None) -> Diagnosis:
     """Locate where ``model`` (or ``fit``'s model, reusing that fit; neither: the base model the
     evidence prefers) and ``meas`` differ beyond the noise, name the catalogue physics that
     explains each band, and add it (:func:`~bayes_emt.discovery.diagnose.diagnose`).
-    ``time_budget`` [CPU s] stops trying further candidates (``None``: no limit)."""
+    ``time_budget`` [CPU s] stops trying further candidates (``None``: no limit); ``setup``
+    (``"free-air"``, ``"sealed"``, ``"vented"``, ``"shaker"``, ``"unknown"``) removes physics the
+    setup cannot have (no port in free air); ``exclude_band=[(f1_hz, f2_hz), ...]`` leaves out a narrow
+    feature no lumped model explains."""
     m = None if model is None else as_model(model)
     return _diagnose(as_measurement(meas), m, fit=fit, seed=seed, max_rounds=max_rounds,
-                     time_budget=time_budget, progress=progress)
+                     time_budget=time_budget, setup=setup, exclude_band=exclude_band, progress=progress)
 
 
 def robust_shunt(posteriors: Posterior | Sequence[Posterior], *, weights: str | Sequence[float] = "evidence",
