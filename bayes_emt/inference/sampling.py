@@ -377,7 +377,7 @@ class _HeldSignals:
         return False
 
 
-def _interrupted(exc: KeyboardInterrupt, checkpoint) -> Interrupted:
+def interruption(exc: KeyboardInterrupt, checkpoint) -> Interrupted:
     """The exception a stopped run raises: what the checkpoint holds, and how to continue."""
     signum = getattr(exc, "signum", signal.SIGINT)
     if checkpoint is None:
@@ -500,7 +500,7 @@ def _run_locked(target, start, seed, max_steps, checkpoint, resume, overwrite, p
         if checkpoint is not None and not resume and checkpoint_steps(checkpoint) in (0, None):
             Path(checkpoint).unlink(missing_ok=True)
         if isinstance(exc, KeyboardInterrupt):
-            raise _interrupted(exc, checkpoint) from None
+            raise interruption(exc, checkpoint) from None
         raise
     finally:
         bar.close()

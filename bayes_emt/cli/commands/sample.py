@@ -101,7 +101,6 @@ def run(args) -> int:
     from ...inference.priors import apply_priors
     from ...inference.sampling import check_checkpoint, sample_posterior
     from ...io import read_measurement
-    from ...io.paramfile import write_json
     from ...io.priorfile import read_prior_file
     from ...params import prior_from_dict
 
@@ -175,6 +174,21 @@ def run(args) -> int:
         print(f"added-mass pair {args.data} + {args.loaded} (added {args.delta_m:+g} kg), "
               f"model {model.label}, "
               f"{meas.n_points} + {loaded.n_points} points, likelihood {post.likelihood.describe()}")
+    from ...errors import Interrupted
+    from ...inference.sampling import interruption
+
+    try:
+        return _outputs(args, post, warns, out, ckpt, stem, plots)
+    except Interrupted:
+        raise
+    except KeyboardInterrupt as exc:  # after the last step: the checkpoint holds the whole chain
+        raise interruption(exc, ckpt) from None
+
+
+def _outputs(args, post, warns, out, ckpt, stem, plots) -> int:
+    """Print, save and plot a finished posterior (exit code: 0 converged, 1 not)."""
+    from ...io.paramfile import write_json
+
     print(f"{post.n_steps} steps x {post.n_walkers} walkers, tau_max {max(post.tau):.0f} steps, "
           f"burn {post.burn}, thin {post.thin}, {post.draws.shape[0] * post.draws.shape[1]} draws kept, "
           f"acceptance {post.acceptance:.2f}, {post.wall_time:.1f} s")
