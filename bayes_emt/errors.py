@@ -38,6 +38,8 @@ class Interrupted(KeyboardInterrupt):
 
     def __init__(self, signum: int = _signal.SIGINT, message: str | None = None):
         self.signum = int(signum)
+        #: whether the message already says what was kept (a bare signal's does not)
+        self.reported = message is not None
         super().__init__(message or f"interrupted ({_signal.Signals(self.signum).name})")
 
     @property

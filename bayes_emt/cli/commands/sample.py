@@ -99,7 +99,7 @@ def run(args) -> int:
     from ...estimation.fitting import fit_admittance
     from ...inference.likelihood import noise_param_set
     from ...inference.priors import apply_priors
-    from ...inference.sampling import check_checkpoint, sample_posterior
+    from ...inference.sampling import check_checkpoint
     from ...io import read_measurement
     from ...io.priorfile import read_prior_file
     from ...params import prior_from_dict
@@ -164,6 +164,22 @@ def run(args) -> int:
     common = {"seed": args.seed, "max_steps": args.max_steps, "checkpoint": ckpt, "resume": args.resume,
               "overwrite": args.overwrite, "progress": False if args.quiet else None,
               "likelihood": args.likelihood, "nu": nu, "noise_params": noise}
+    from ...errors import Interrupted
+    from ...inference.sampling import interruption
+
+    try:
+        post = _sample(args, meas, loaded, model, fit, physical, common)
+        return _outputs(args, post, warns, out, ckpt, stem, plots)
+    except KeyboardInterrupt as exc:  # a bare signal outside the sampler's steps: say what is kept
+        if isinstance(exc, Interrupted) and exc.reported:
+            raise
+        raise interruption(exc, ckpt) from None
+
+
+def _sample(args, meas, loaded, model, fit, physical, common):
+    """The posterior of one recording, or the joint one of an added-mass pair."""
+    from ...inference.sampling import sample_posterior
+
     if loaded is None:
         post = sample_posterior(meas, model, fit=fit, **common)
         print(f"model {model.label}, {meas.n_points} points, likelihood {post.likelihood.describe()}")
@@ -174,15 +190,7 @@ def run(args) -> int:
         print(f"added-mass pair {args.data} + {args.loaded} (added {args.delta_m:+g} kg), "
               f"model {model.label}, "
               f"{meas.n_points} + {loaded.n_points} points, likelihood {post.likelihood.describe()}")
-    from ...errors import Interrupted
-    from ...inference.sampling import interruption
-
-    try:
-        return _outputs(args, post, warns, out, ckpt, stem, plots)
-    except Interrupted:
-        raise
-    except KeyboardInterrupt as exc:  # after the last step: the checkpoint holds the whole chain
-        raise interruption(exc, ckpt) from None
+    return post
 
 
 def _outputs(args, post, warns, out, ckpt, stem, plots) -> int:
