@@ -35,7 +35,7 @@ from .._json import strict_json
 from ..errors import DataFormatError
 from ..models import Model
 from .receptance import Plant, rc_impedance
-from .records import design_summary, html_table
+from .records import design_summary, html_table, read_json_record
 from .safety import check_margin
 from .stability import StabilityReport, assess_stability, instability_threshold, threshold_grid
 
@@ -412,11 +412,4 @@ def design_from_json_dict(rec: dict, *, where: str = "shunt design"):
 
 def read_shunt_design(path: str | Path):
     """Read a design written by :meth:`ShuntDesign.save` (or ``shunt --json``)."""
-    p = Path(path)
-    try:
-        rec = json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise DataFormatError(f"{path}: no such file") from None
-    except (OSError, ValueError) as exc:
-        raise DataFormatError(f"{path}: not a JSON shunt design ({exc})") from None
-    return design_from_json_dict(rec, where=str(path))
+    return design_from_json_dict(read_json_record(path, "shunt design"), where=str(path))

@@ -19,14 +19,13 @@ import math
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from .._json import strict_json
 from ..errors import DataFormatError
 from .draws import mixture_weights, sample_mixture
-from .records import html_table, table
+from .records import html_table, read_json_record, table
 from .robust import RobustShunt, design_robust_shunt
 
 __all__ = ["RobustShuntResult", "robust_shunt", "read_robust_shunt", "posterior_weights"]
@@ -191,13 +190,7 @@ def _back(v, inf_for_null=False) -> np.ndarray:
 
 def read_robust_shunt(path) -> RobustShuntResult:
     """Read :meth:`RobustShuntResult.save` output back (``detail`` is ``None``)."""
-    p = Path(path)
-    try:
-        rec = json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise DataFormatError(f"{path}: no such file") from None
-    except (OSError, ValueError) as exc:
-        raise DataFormatError(f"{path}: not a JSON robust-shunt result ({exc})") from None
+    rec = read_json_record(path, "robust-shunt result")
     if not isinstance(rec, dict) or not {"nominal", "robust", "draws"} <= set(rec):
         raise DataFormatError(f"{path}: not a robust-shunt result (needs 'nominal', 'robust' and 'draws')")
     d = rec.pop("draws")

@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import html
+import json
 import math
+from pathlib import Path
 
-__all__ = ["design_summary", "html_table", "table"]
+from ..errors import DataFormatError
+
+__all__ = ["design_summary", "html_table", "table", "read_json_record"]
 
 
 def table(rows, header) -> list[str]:
@@ -45,3 +49,14 @@ def design_summary(d) -> str:
 def html_table(text: str) -> str:
     """A summary as preformatted HTML (notebooks)."""
     return f"<pre>{html.escape(text)}</pre>"
+
+
+def read_json_record(path, what: str) -> dict | list:
+    """The JSON a shunt result's ``save`` wrote to ``path``; a missing or unreadable file is a
+    one-line :class:`~bayes_emt.errors.DataFormatError` naming it and ``what`` was expected."""
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise DataFormatError(f"{path}: no such file") from None
+    except (OSError, ValueError) as exc:
+        raise DataFormatError(f"{path}: not a JSON {what} ({exc})") from None
