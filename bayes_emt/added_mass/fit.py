@@ -257,6 +257,24 @@ def _rel_residuals(model: Model, meas: Measurement, theta):
     return np.concatenate([d.real, d.imag], axis=-1)
 
 
+def solve_joint(batch, params, x0, lo, hi, max_nfev=None):
+    """Bounded least squares of the stacked residuals ``batch`` from ``x0`` [SI], in sampling space
+    (every added-mass joint fit): the optimiser's result, the residual vector, the covariance in
+    sampling space (``None`` when singular), the solution [SI] and its standard errors [SI] (delta
+    method through the transform)."""
+    from ..estimation.fitting import batched_least_squares, central_jacobian, covariance_z
+
+    p = np.asarray(x0).size
+    sol = batched_least_squares(batch, params.to_z(x0), lo, hi, max_nfev=max_nfev or 50 * p)
+    r = batch(sol.x[None, :])[0]
+    cov = covariance_z(central_jacobian(batch, sol.x), r, p)
+    x = params.from_z(sol.x)
+    se = np.full(p, np.nan) if cov is None else np.sqrt(np.clip(np.diag(cov), 0, None))
+    se = np.array([abs(v) * s if spec.transform == "log" else s
+                   for spec, v, s in zip(params, x, se, strict=True)])
+    return sol, r, cov, x, se
+
+
 def fit_added_mass(base: Measurement, loaded: Measurement, delta_m: float, model: Model, *,
                    base_fit: FitResult | None = None, loaded_fit: FitResult | None = None,
                    max_nfev: int | None = None) -> AddedMassResult:
@@ -289,7 +307,7 @@ def fit_added_mass(base: Measurement, loaded: Measurement, delta_m: float, model
     explains both tables, which the joint fit's residuals and :attr:`AddedMassResult.consistency`
     show where the formulas silently return the base run's values.
     """
-    from ..estimation.fitting import batched_least_squares, central_jacobian, covariance_z, fit_admittance
+    from ..estimation.fitting import fit_admittance
 
     if not (math.isfinite(delta_m) and delta_m != 0):
         raise ValueError(f"delta_m must be a non-zero mass in kg, got {delta_m!r}")
@@ -323,13 +341,7 @@ def fit_added_mass(base: Measurement, loaded: Measurement, delta_m: float, model
     if delta_m < 0:  # the loaded mass m + Δm must stay positive
         lo[0] = max(lo[0], float(jm.params[0].to_z(-delta_m * (1 + 1e-9))))
     p = x0.size
-    sol = batched_least_squares(batch, jm.params.to_z(x0), lo, hi, max_nfev=max_nfev or 50 * p)
-    r = batch(sol.x[None, :])[0]
-    cov = covariance_z(central_jacobian(batch, sol.x), r, p)
-    x = jm.params.from_z(sol.x)
-    se = np.full(p, np.nan) if cov is None else np.sqrt(np.clip(np.diag(cov), 0, None))
-    se = np.array([abs(v) * s if spec.transform == "log" else s
-                   for spec, v, s in zip(jm.params, x, se, strict=True)])
+    sol, r, cov, x, se = solve_joint(batch, jm.params, x0, lo, hi, max_nfev)
     tb, tl = jm.thetas(x)
     # F-test: joint (p parameters) nested in the two separate fits (2 k parameters)
     chi2_joint, chi2_s = float(r @ r), chi2_sep[0] / noise[0] ** 2 + chi2_sep[1] / noise[1] ** 2

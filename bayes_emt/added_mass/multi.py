@@ -43,6 +43,7 @@ from .fit import (
     _rel_residuals,
     mechanics_from_physical,
     physical_from_two_fits,
+    solve_joint,
 )
 from .posterior import _run_noise
 
@@ -171,7 +172,7 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
     residual scale ``s_run``) plus, with ``re = (R_meter, sd)`` [Ω], the penalty
     ``((R0 − R_meter)/sd)²`` (an ohmmeter reading as a Gaussian constraint).
     """
-    from ..estimation.fitting import batched_least_squares, central_jacobian, covariance_z, fit_admittance
+    from ..estimation.fitting import fit_admittance
 
     if len(runs) != len(deltas) + 1:
         raise ValueError(f"{len(runs)} recordings need {len(runs) - 1} added masses, got {len(deltas)}")
@@ -202,13 +203,7 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
     if neg:
         lo[0] = max(lo[0], float(jm.params[0].to_z(-min(neg) * (1 + 1e-9))))
     p = x0.size
-    sol = batched_least_squares(batch, jm.params.to_z(x0), lo, hi, max_nfev=max_nfev or 50 * p)
-    r = batch(sol.x[None, :])[0]
-    cov = covariance_z(central_jacobian(batch, sol.x), r, p)
-    x = jm.params.from_z(sol.x)
-    se = np.full(p, np.nan) if cov is None else np.sqrt(np.clip(np.diag(cov), 0, None))
-    se = np.array([abs(v) * s if spec.transform == "log" else s
-                   for spec, v, s in zip(jm.params, x, se, strict=True)])
+    sol, r, cov, x, se = solve_joint(batch, jm.params, x0, lo, hi, max_nfev)
     thetas = jm.thetas(x)
     chi2_joint = float(r @ r)
     chi2_s = sum(c / s**2 for c, s in zip(chi2_sep, noise, strict=True))
