@@ -55,7 +55,9 @@ FULL_CUTS = (
     f"Models whose least-squares rms residual is more than {SCREEN_FACTOR:g} x the best model's get a "
     "500-step emcee chain only, not one run to convergence: their log Z (thousands of nats below on the "
     "bundled data) is then flagged as not converged; the verdict does not hinge on it.",
-    "Nested sampling (the second, prior-based evidence estimator) is left to bayes-emt compare.",
+    "Nested sampling runs with its prior repartitioned onto the emcee draws (bayes-emt compare's "
+    "default); the run from the model's own prior (--nested-prior prior), the only one that can find a "
+    "mode the chain missed, is left to bayes-emt compare.",
 )
 QUICK_CUTS = (
     "--quick fits models I, II and NL only (III, UD and UL are left out).",
