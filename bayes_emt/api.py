@@ -91,7 +91,7 @@ def sample(meas: Measurement | str | Path, model: Model | str | None = None, *, 
     if model is None and fit is None:
         raise TypeError("sample: give a model spec (e.g. 'UD') or a fit")
     m = fit.model if model is None else as_model(model, rings=rings)
-    if fit is not None and fit.model.spec != m.spec:
+    if fit is not None and fit.model.label != m.label:
         raise ValueError(f"sample: the fit is of {fit.model.label}, the model asked for is {m.label}")
     return sample_posterior(as_measurement(meas), m, fit=fit, seed=seed, **options)
 

@@ -469,7 +469,7 @@ def diagnose(
     say = progress or (lambda msg: None)
     warn: list[str] = []
     if fit is not None:
-        if model is not None and model.spec != fit.model.spec:
+        if model is not None and model.label != fit.model.label:
             raise ValueError(f"diagnose: the fit is of {fit.model.label}, the model given is {model.label}")
         if fit.n_points != meas.n_points:
             raise ValueError(
