@@ -26,7 +26,8 @@ from ._atomic import atomic_write_text
 from ._json import strict_json
 from .errors import DataFormatError
 
-__all__ = ["Table", "Record", "read_record", "fmt", "render_text", "render_html", "record_kinds"]
+__all__ = ["Table", "Record", "read_record", "record_from_dict", "fmt", "render_text", "render_html",
+           "record_kinds"]
 
 _KINDS: dict[str, type] = {}
 
@@ -170,12 +171,17 @@ def read_record(path: str | Path):
         raise DataFormatError(f"{path}: cannot read ({why})") from None
     except json.JSONDecodeError as exc:
         raise DataFormatError(f"{path}:{exc.lineno}: not JSON ({exc.msg})") from None
+    return record_from_dict(rec, where=str(path))
+
+
+def record_from_dict(rec, *, where: str = "record"):
+    """The result a parsed record describes, by its ``kind`` (``where`` names it in errors)."""
     kind = rec.get("kind") if isinstance(rec, dict) else None
     if kind not in _KINDS:
         known = ", ".join(sorted(_KINDS)) or "none loaded"
-        raise DataFormatError(f"{path}: not a saved bayes_emt result (its 'kind' is {kind!r}; "
+        raise DataFormatError(f"{where}: not a saved bayes_emt result (its 'kind' is {kind!r}; "
                               f"known: {known})")
     try:
         return _KINDS[kind].from_json_dict(rec)
     except (KeyError, TypeError, ValueError) as exc:
-        raise DataFormatError(f"{path}: a {kind} record that cannot be read back ({exc})") from None
+        raise DataFormatError(f"{where}: a {kind} record that cannot be read back ({exc})") from None

@@ -21,7 +21,7 @@ import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 
-from ._record import read_record
+from ._record import read_record, record_from_dict
 from .discovery.diagnose import Diagnosis
 from .discovery.diagnose import diagnose as _diagnose
 from .estimation.fitting import fit_admittance
@@ -38,7 +38,7 @@ from .measurement import Measurement
 from .models import Model, build_model
 from .shunt import RobustShuntResult, ShuntDesign, design_rc_shunt, read_robust_shunt
 from .shunt import robust_shunt as _robust_shunt
-from .shunt.design import read_shunt_design
+from .shunt.design import design_from_json_dict
 from .thiele_small import ThieleSmall, thiele_small
 from .thiele_small.result import read_thiele_small
 
@@ -223,5 +223,5 @@ def load(path: str | Path):
         if {"nominal", "robust"} <= set(rec):
             return read_robust_shunt(p)
         if {"Rs", "Cs"} <= set(rec):
-            return read_shunt_design(p)
-    return read_record(p)
+            return design_from_json_dict(rec, where=str(p))
+    return record_from_dict(rec, where=str(p))

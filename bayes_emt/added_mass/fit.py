@@ -31,7 +31,7 @@ from ..errors import FitError
 from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import Model
-from ..models.residual import rms_relative_residual
+from ..models.residual import relative_residual, rms_relative_residual
 from ..params import LogUniform, ParamSet, ParamSpec
 
 __all__ = ["physical_from_two_fits", "mechanics_from_physical", "fit_added_mass", "JointModel",
@@ -250,10 +250,12 @@ class AddedMassResult:
 
 
 def _rel_residuals(model: Model, meas: Measurement, theta):
-    """Relative residuals (times the measurement's weights), real and imaginary parts stacked."""
-    w = 1.0 / np.abs(meas.Y) if meas.weights is None else meas.weights / np.abs(meas.Y)
+    """Relative residuals (:func:`~bayes_emt.models.residual.relative_residual`, times the
+    measurement's weights), real and imaginary parts stacked."""
     with np.errstate(all="ignore"):
-        d = (model.admittance(meas.omega, theta) - meas.Y) * w
+        d = relative_residual(model, theta, meas)
+        if meas.weights is not None:
+            d = d * meas.weights
     return np.concatenate([d.real, d.imag], axis=-1)
 
 
