@@ -12,15 +12,12 @@ below 0.01 Ω).
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from bayes_emt.estimation.fitting import fit_admittance
 from bayes_emt.io import read_measurement
-from bayes_emt.models import parse_model_spec
 from bayes_emt.thiele_small import thiele_small
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,18 +46,25 @@ def main() -> int:
             lines.append(f"\n--- ts UD, {'fast' if fast else 'posterior'}, re={re}")
             lines += r.summary().splitlines()
             lines.append(f"model spread: {r.inputs['model_spread']}")
-    meas = full.select(2 * math.pi * BAND[0], 2 * math.pi * BAND[1])
-    lines.append("\n--- R0 across coil models (least squares, free-air recording), with and without "
-                 "the reading")
+    lines.append("\n--- R0 across coil models (least squares, free-air recording), with and without the "
+                 "reading: every candidate, then the model spread's rule (adequate, determined, probable)")
     for re in (None, (meter, 0.01 * meter), (meter, 0.0025 * meter)):
-        r0 = {}
-        for spec in ("II", "III", "UD", "UD+suspension_creep"):
-            f = fit_admittance(meas, parse_model_spec(spec), re=re)
-            r0[spec] = (f.parameters["R0"], f.stderr["R0"], f.rms_rel_residual)
-        vals = [v[0] for v in r0.values()]
-        lines.append(f"re={re}: " + "; ".join(f"{s} {v:.3f}+/-{e:.3f} ohm (rms {100 * q:.2f} %)"
-                                               for s, (v, e, q) in r0.items())
-                     + f" | spread {min(vals):.3f}..{max(vals):.3f} = {max(vals) - min(vals):.3f} ohm")
+        r = thiele_small(free_path, "UD", models_for_spread=["II", "III", "UD+suspension_creep"], re=re,
+                         fast=True, seed=0, f_range_hz=BAND, read_options=OPTS)
+        models = r.inputs["model_spread"]["models"]
+        r0 = [m["values"]["Re"] for m in models]
+        lines.append(f"re={re}:")
+        for m in models:
+            lz = "-" if m["log_evidence"] is None else f"{m['log_evidence']:.1f}"
+            p = "-" if m["probability"] is None else f"{m['probability']:.3g}"
+            rms = 100 * m["rms_rel_residual"]
+            lines.append(f"  {m['model']:<20} R0 {m['values']['Re']:.3f} ohm  rms {rms:.2f} %  "
+                         f"undetermined {m['undetermined'] or '-'}  log Z {lz}  P {p}  "
+                         f"{'included' if m['included'] else 'excluded'}")
+        sp = r.parameters["Re"]["model_spread"]
+        lines.append(f"  every candidate: {min(r0):.3f}..{max(r0):.3f} = {max(r0) - min(r0):.3f} ohm; "
+                     "model_spread: " + ("none (one model left)" if sp is None else
+                                         f"{sp[0]:.3f}..{sp[1]:.3f} = {sp[1] - sp[0]:.3f} ohm"))
     text = "\n".join(lines) + "\n"
     print(text)
     OUT.write_text("scripts/ts_realdata.py\n" + text, encoding="utf-8")

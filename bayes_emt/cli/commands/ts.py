@@ -93,8 +93,11 @@ def run(args) -> int:
     print("\n".join(ln for ln in table if not ln.startswith("warning [")))
     print_warning_lines(r.warnings)
     sp = r.inputs["model_spread"]
-    note(args, f"model spread over {', '.join(sp['adequate'])} (adequate of {', '.join(sp['candidates'])}; "
-               f"{sp['weighting']})")
+    probs = ", ".join(f"{m['model']} {'-' if m['probability'] is None else format(m['probability'], '.2g')}"
+                      for m in sp["models"])
+    used = ", ".join(sp["included"]) or "no model"
+    note(args, f"model spread over {used} of {', '.join(sp['candidates'])} "
+               f"(model probabilities: {probs}; {r.inputs['model_spread_method']})")
     if args.json:
         r.save(args.json)
         note(args, f"wrote {args.json}")
