@@ -71,8 +71,9 @@ from ..params import Normal
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
-__all__ = ["thiele_small", "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES", "parse_re",
-           "SPREAD_MIN_PROBABILITY", "MODEL_SPREAD_METHOD", "undetermined", "select_spread_models"]
+__all__ = ["thiele_small", "from_fit", "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES",
+           "parse_re", "SPREAD_MIN_PROBABILITY", "MODEL_SPREAD_METHOD", "undetermined",
+           "select_spread_models"]
 
 ADEQUATE_RMS_FACTOR = 1.5
 #: smallest posterior model probability (equal prior odds, Laplace evidence) that enters the spread
@@ -154,6 +155,7 @@ class _Inputs:
     c: float
     seed: int
     settings: object
+    evidence: bool = True  # compute each model's Laplace evidence (only needed for the model spread)
 
 
 def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
@@ -297,7 +299,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             theta = post.theta()
         rec = {"rms": fit.rms_rel_residual,
                "undetermined": undetermined(fit.model.params, fit.theta, fit.cov_z),
-               "log_z": _single_evidence(meas, fit, prior_model)}
+               "log_z": _single_evidence(meas, fit, prior_model) if inp.evidence else float("nan")}
         return fit.model, theta, point, rec
 
     if method == "free_air":
@@ -337,7 +339,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             out.append(_complete(free_air(model, theta), model, theta, inp, mms=xx[:, 0]))
         rec = {"model": model.label, "rms": float(np.sqrt(np.mean(np.square(mfit.rms_rel_residual)))),
                "undetermined": undetermined(jm.params, mfit.theta, mfit.cov_z),
-               "log_z": _joint_evidence(runs, mfit, prior_model)}
+               "log_z": _joint_evidence(runs, mfit, prior_model) if inp.evidence else float("nan")}
         return out[0], out[1], rec
     # added volume
     bound, theta, point, rec_b = single(inp.meas, "free air")
@@ -451,13 +453,15 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
     method = "added_mass" if lm else "added_volume" if bx else "free_air"
     inp = _Inputs(meas, lm, bx, sd, re_t, mms, bl, float(air_density), float(sound_speed), int(seed),
                   settings if settings is not None else _ts_sampler())
+    candidates = _spread_models(main, models_for_spread)
+    inp.evidence = bool(candidates)
     warns: list[dict] = []
     mode = "laplace" if fast else "posterior"
     draws, point_main, rec_main = _estimate(main, method, inp, mode, warns)
 
     # model spread: point values of the adequate, determined, probable candidates (module docstring)
     records, points = [rec_main], {rec_main["model"]: point_main}
-    for cand in _spread_models(main, models_for_spread):
+    for cand in candidates:
         try:
             _, pv, rec = _estimate(cand, method, inp, "point", [])
         except Exception as exc:  # noqa: BLE001 - a candidate that cannot be fitted is reported, not fatal
@@ -552,6 +556,41 @@ def _dedupe(warns: list[dict]) -> list[dict]:
         rec["models"] = [w["model"]] if w.get("model") else []
         out[key] = rec
     return list(out.values())
+
+
+def from_fit(fit, *, seed: int = 0) -> ThieleSmall:
+    """The free-air T/S set of a least-squares fit (one recording), intervals from the fit's
+    Gaussian approximation as ``thiele_small(..., fast=True)`` gives them (4000 draws of its
+    sampling-space covariance, seeded; ``value`` their median). A fit without covariance gives its
+    point values with ``ci90`` None and says so. No model spread (one model)."""
+    model = fit.model
+    point = free_air(model, fit.theta[None, :])
+    draws, warns = None, []
+    if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)):
+        theta = _laplace(model.params, model.params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS,
+                         np.random.default_rng(seed))
+        draws = free_air(model, theta)
+    else:
+        warns.append({"code": "no_covariance", "message": "the fit has no covariance (singular Jacobian): "
+                      "point values only, no intervals"})
+    params = {}
+    for name in NAMES:
+        if name not in point:
+            continue
+        v0 = float(np.asarray(point[name], float).ravel()[0])
+        if not math.isfinite(v0):
+            continue
+        entry = {"value": v0, "ci90": None, "unit": UNITS[name], "model_spread": None}
+        if draws is not None:
+            v = np.asarray(draws[name], float)
+            v = v[np.isfinite(v)]
+            if v.size:
+                lo, med, hi = np.quantile(v, [0.05, 0.5, 0.95])
+                entry.update(value=float(med), ci90=[float(lo), float(hi)])
+        params[name] = entry
+    return ThieleSmall(model=model.spec, method="free_air", parameters=params,
+                       inputs={"uncertainty": "laplace" if draws is not None else "none", "seed": int(seed)},
+                       warnings=tuple(warns))
 
 
 def from_posterior(post, *, sd: float | None = None, air_density: float = 1.18,
