@@ -60,7 +60,8 @@ def test_fit_job_summary_has_the_ts_set_with_units_and_intervals(tmp_path):
     rec = json.loads((out / "summary.json").read_text())  # strict JSON (no NaN): json.loads accepts
     assert rec["columns"]["fs_hz"] == "fs [Hz]"
     row = rec["rows"][0]
-    assert row["status"] == "done" and row["ts"]["Qts"]["ci90"][0] <= row["Qts"] <= row["ts"]["Qts"]["ci90"][1]
+    lo, hi = row["ts"]["Qts"]["ci90"]
+    assert row["status"] == "done" and lo <= row["Qts"] <= hi
 
 
 def test_sample_job_summary_takes_the_posterior_ts(tmp_path):
