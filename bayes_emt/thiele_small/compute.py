@@ -115,7 +115,7 @@ def parse_re(re) -> tuple[float, float] | None:
     return value, sd
 
 
-def _measurement(x, where: str, read_options: dict | None, f_range_hz) -> Measurement:
+def _measurement(x, where: str, read_options: dict | None, f_range_hz, exclude_band=None) -> Measurement:
     if isinstance(x, Measurement):
         meas = x
     elif isinstance(x, str | Path):
@@ -127,7 +127,7 @@ def _measurement(x, where: str, read_options: dict | None, f_range_hz) -> Measur
     if f_range_hz is not None:
         lo, hi = f_range_hz
         meas = meas.select(None if lo is None else 2 * math.pi * lo, None if hi is None else 2 * math.pi * hi)
-    return meas
+    return meas.exclude_bands(exclude_band)
 
 
 def _model(model) -> Model:
@@ -393,6 +393,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                  sd: float | None = None, re=None, mms: float | None = None, bl: float | None = None,
                  air_density: float = 1.18, sound_speed: float = 343.0, fast: bool = False, seed: int = 0,
                  models_for_spread: Sequence | None = None, f_range_hz: tuple | None = None,
+                 exclude_band: Sequence | None = None,
                  read_options: dict | None = None, settings=None) -> ThieleSmall:
     """Thiele–Small parameters with 90 % intervals and model spread (module docstring).
 
@@ -411,6 +412,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
     models_for_spread : candidate model specs for ``model_spread`` (default II, III, UD with the
         main model's physics terms; ``[]``: none).
     f_range_hz : ``(f_min, f_max)`` [Hz] band used from every recording (``None``: all).
+    exclude_band : ``[(f1_hz, f2_hz), ...]``: points left out of every recording
+        (:meth:`~bayes_emt.measurement.Measurement.exclude_bands`: a cone break-up, a surround dip).
     read_options : keyword arguments of :func:`~bayes_emt.io.read_measurement` for file paths.
     settings : :class:`~bayes_emt.inference.sampling.SamplerSettings` (default the T/S budget).
 
@@ -431,7 +434,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"{name} must be a positive number, got {v!r}")
     re_t = parse_re(re)
     main = _model(model)
-    meas = _measurement(data, "data", read_options, f_range_hz)
+    meas = _measurement(data, "data", read_options, f_range_hz, exclude_band)
     lm = []
     for i, item in enumerate(loaded):
         try:
@@ -440,7 +443,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"loaded[{i}] must be (recording, delta_m_kg), got {item!r}") from None
         if not (math.isfinite(float(dm)) and float(dm) != 0):
             raise ValueError(f"loaded[{i}]: the added mass must be a non-zero number of kg, got {dm!r}")
-        lm.append((_measurement(rec, f"loaded[{i}]", read_options, f_range_hz), float(dm)))
+        lm.append((_measurement(rec, f"loaded[{i}]", read_options, f_range_hz, exclude_band), float(dm)))
     bx = None
     if box is not None:
         try:
@@ -449,7 +452,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"box must be (recording, volume_m3), got {box!r}") from None
         if not (math.isfinite(float(vb)) and float(vb) > 0):
             raise ValueError(f"box volume must be a positive number of m^3, got {vb!r}")
-        bx = (_measurement(rec, "box", read_options, f_range_hz), float(vb))
+        bx = (_measurement(rec, "box", read_options, f_range_hz, exclude_band), float(vb))
     method = "added_mass" if lm else "added_volume" if bx else "free_air"
     inp = _Inputs(meas, lm, bx, sd, re_t, mms, bl, float(air_density), float(sound_speed), int(seed),
                   settings if settings is not None else _ts_sampler())
@@ -512,6 +515,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                       "Speakerbench report them); zeta and omega0 stay model parameters; "
                       "Qms_viscous is the viscous part alone"})
     inputs = {"data": meas.source, "f_range_hz": [float(meas.f_hz[0]), float(meas.f_hz[-1])],
+              "exclude_band_hz": [[float(a), float(b)] for a, b in (exclude_band or ())],
               "loaded": [{"data": m.source, "delta_m_kg": d} for m, d in lm],
               "box": None if bx is None else {"data": bx[0].source, "volume_m3": bx[1]},
               "sd_m2": sd, "re": None if re_t is None else {"ohm": re_t[0], "sd_ohm": re_t[1]},
