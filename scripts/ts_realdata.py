@@ -8,6 +8,14 @@ own lowest point, Re Z(1 Hz) = 7.40 Ω (outside the fitted band; the motional pa
 below 0.01 Ω).
 
     .venv/bin/python scripts/ts_realdata.py          # about 3 minutes; writes scripts/results/ts_ls10_44.txt
+
+No comparison with the manufacturer's published values (issue 22, acceptance 2): they were not
+found in the searchable sources. The audioXpress review "Test Bench: Dayton Audio LS10-44 and
+LS12-44 Shallow-Mount Subwoofers" (April 2016, audioxpress.com) exists, but only its first part,
+without the parameter table, is stored; no Dayton/Parts Express data sheet, WinISD ``.wdr`` or
+driver database with the LS10-44's values was found in code or pages. The LS10-44 has two 4-ohm
+coils; Re Z(1 Hz) = 7.40 ohm here says the recording is of the two in series, so a published
+per-coil Re would be compared with half of it.
 """
 
 from __future__ import annotations
@@ -45,7 +53,12 @@ def main() -> int:
                              f_range_hz=BAND, read_options=OPTS)
             lines.append(f"\n--- ts UD, {'fast' if fast else 'posterior'}, re={re}")
             lines += r.summary().splitlines()
-            lines.append(f"model spread: {r.inputs['model_spread']}")
+            sp = r.inputs["model_spread"]
+            probs = ", ".join(f"{m['model']} rms {100 * m['rms_rel_residual']:.2f} % "
+                              f"P {'-' if m['probability'] is None else format(m['probability'], '.3g')}"
+                              f"{' undetermined ' + ','.join(m['undetermined']) if m['undetermined'] else ''}"
+                              for m in sp["models"])
+            lines.append(f"model spread over {sp['included']} ({probs})")
     lines.append("\n--- R0 across coil models (least squares, free-air recording), with and without the "
                  "reading: every candidate, then the model spread's rule (adequate, determined, probable)")
     for re in (None, (meter, 0.01 * meter), (meter, 0.0025 * meter)):
