@@ -9,13 +9,12 @@ below 0.01 Ω).
 
     .venv/bin/python scripts/ts_realdata.py          # about 3 minutes; writes scripts/results/ts_ls10_44.txt
 
-No comparison with the manufacturer's published values (issue 22, acceptance 2): they were not
-found in the searchable sources. The audioXpress review "Test Bench: Dayton Audio LS10-44 and
-LS12-44 Shallow-Mount Subwoofers" (April 2016, audioxpress.com) exists, but only its first part,
-without the parameter table, is stored; no Dayton/Parts Express data sheet, WinISD ``.wdr`` or
-driver database with the LS10-44's values was found in code or pages. The LS10-44 has two 4-ohm
-coils; Re Z(1 Hz) = 7.40 ohm here says the recording is of the two in series, so a published
-per-coil Re would be compared with half of it.
+Comparison with the manufacturer's published values (issue 22, acceptance 2):
+:data:`bayes_emt.thiele_small.published.LS10_44` (Dayton Audio's product page and spec sheet,
+source cited there; coils in series, as in these recordings: Re Z(1 Hz) = 7.40 Ω = the published
+Re). Compared: the pair's UD posterior (no reading) and a free-air UD posterior of the other
+LS10-44 sample, ``dayton_LS10-44.zma`` (10 Hz-20 kHz), without and with the published Re as a
+0.25 % ohmmeter reading.
 """
 
 from __future__ import annotations
@@ -27,6 +26,8 @@ import numpy as np
 
 from bayes_emt.io import read_measurement
 from bayes_emt.thiele_small import thiele_small
+from bayes_emt.thiele_small.published import LS10_44, LS10_44_SOURCE
+from bayes_emt.thiele_small.relations import DISPLAY
 
 ROOT = Path(__file__).resolve().parents[1]
 REAL = ROOT / ".." / "shared" / "realdata"
@@ -47,10 +48,12 @@ def main() -> int:
     meter = round(float(z1.real), 2)
     lines = [f"Dayton LS10-44 pair, {BAND[0]:g}-{BAND[1]:g} Hz, Sd {SD} m^2; "
              f"Re Z(1 Hz) = {z1.real:.3f} ohm"]
+    results = {}
     for fast in (True, False):
         for re in (None, (meter, 0.01 * meter)):
             r = thiele_small(free_path, "UD", loaded=loaded, sd=SD, re=re, fast=fast, seed=0,
                              f_range_hz=BAND, read_options=OPTS)
+            results[fast, re is not None] = r
             lines.append(f"\n--- ts UD, {'fast' if fast else 'posterior'}, re={re}")
             lines += r.summary().splitlines()
             sp = r.inputs["model_spread"]
@@ -78,10 +81,41 @@ def main() -> int:
         lines.append(f"  every candidate: {min(r0):.3f}..{max(r0):.3f} = {max(r0) - min(r0):.3f} ohm; "
                      "model_spread: " + ("none (one model left)" if sp is None else
                                          f"{sp[0]:.3f}..{sp[1]:.3f} = {sp[1] - sp[0]:.3f} ohm"))
+    lines += _published_comparison(results[False, False])
     text = "\n".join(lines) + "\n"
     print(text)
     OUT.write_text("scripts/ts_realdata.py\n" + text, encoding="utf-8")
     return 0
+
+
+def _published_comparison(pair) -> list[str]:
+    """The published set beside the pair's posterior, the other sample's free-air posterior, and
+    that one again with the published Re as a tight ohmmeter reading (7.4 ohm, sd 0.25 %);
+    relative differences in %."""
+    zma = REAL / "dayton_LS10-44.zma"
+    other = thiele_small(zma, "UD", seed=0, f_range_hz=(10.0, 20000.0))
+    metered = thiele_small(zma, "UD", seed=0, f_range_hz=(10.0, 20000.0), models_for_spread=[],
+                           re=(LS10_44["Re"], 0.0025 * LS10_44["Re"]))
+    cols = [("run2 pair, UD posterior", pair), (".zma free air, UD posterior", other),
+            (".zma, --re 7.4:0.0185", metered)]
+    lines = [f"\n--- published values ({LS10_44_SOURCE})",
+             f"{'parameter':<10} {'published':<10} " + " ".join(f"{h:<36} {'diff':<8}" for h, _ in cols)
+             + " unit"]
+    for name in ("fs", "Re", "Le", "Qms", "Qes", "Qts", "Bl", "Mms", "Cms", "Vas"):
+        unit, f = DISPLAY[name]
+        cells = [f"{name:<10} {LS10_44[name] * f:<10.4g}"]
+        for _, r in cols:
+            q = r.parameters.get(name)
+            if q is None:
+                cells.append(f"{'-':<36} {'':<8}")
+                continue
+            lo, hi = q["ci90"]
+            txt = f"{q['value'] * f:.4g} ({lo * f:.4g}..{hi * f:.4g})"
+            cells.append(f"{txt:<36} {100 * (q['value'] / LS10_44[name] - 1):<+7.1f}%")
+        lines.append(" ".join(cells) + f" {unit}")
+    lines.append(f"(.zma free air: model spread over {other.inputs['model_spread']['included']}; "
+                 f"Sd here {SD} m^2, published {LS10_44['Sd']} m^2)")
+    return lines
 
 
 if __name__ == "__main__":
