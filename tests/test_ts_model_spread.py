@@ -161,3 +161,23 @@ def test_cli_ts_exclude_band(tmp_path):
     bad = subprocess.run(cmd[:-4] + ["--exclude-band", "1100:900"], capture_output=True, text=True,
                          timeout=120)
     assert bad.returncode == 2 and "--exclude-band" in bad.stderr and "Traceback" not in bad.stderr
+
+
+@pytest.mark.parametrize("method", ["added_mass", "added_volume"])
+def test_joint_and_paired_evidence_rank_the_true_model_first(method):
+    """Added mass (joint likelihood of all recordings) and added volume (free air + box, log Z
+    summed): the simulating model has a finite Laplace log Z and is included; model I, which lacks
+    the semi-inductance, is far less probable (P < 1 %) or inadequate, and stays out."""
+    spec = "I+semi_inductance"
+    if method == "added_mass":
+        sim = simulate_driver(spec, seed=7, n_points=400)
+        kw = {"loaded": list(sim.loaded)}
+    else:
+        sim = simulate_driver(spec, deltas=(), box_volume=0.010, seed=7, n_points=400)
+        kw = {"box": sim.box}
+    r = thiele_small(sim.free, spec, sd=sim.sd, fast=True, models_for_spread=["I"], **kw)
+    assert r.method == method
+    models = {m["model"]: m for m in r.inputs["model_spread"]["models"]}
+    assert models[spec]["log_evidence"] is not None and models[spec]["included"]
+    assert not models["I"]["included"]
+    assert models["I"]["probability"] is None or models["I"]["probability"] < SPREAD_MIN_PROBABILITY
