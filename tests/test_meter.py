@@ -174,3 +174,21 @@ def test_cli_fit_says_how_the_reading_counted(tmp_path, driver):
     assert "applied as a penalty (prior)" in q.stdout
     bad = subprocess.run(base + ["--re-mode", "maybe"], capture_output=True, text=True, timeout=60)
     assert bad.returncode != 0 and "--re-mode" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_api_sample_with_a_reading(driver):
+    """``be.sample(..., re=...)``: the cut by default (R0's draws spread like the reading), Bayes'
+    rule with ``"prior"`` (R0 stays near the data's value when the data pin it 5x tighter)."""
+    import bayes_emt as be
+    from bayes_emt.inference.sampling import SamplerSettings
+
+    sim, model, free = driver
+    sd_d = free.stderr["R0"]
+    reading = (free.parameters["R0"] + 3 * sd_d, 5 * sd_d)
+    settings = SamplerSettings(max_steps=4000, ess_target=400.0)
+    cut = be.sample(sim.free, SPEC, re=reading, seed=1, settings=settings, progress=False)
+    prior = be.sample(sim.free, SPEC, re=(*reading, "prior"), seed=1, settings=settings, progress=False)
+    i = cut.names.index("R0")
+    assert cut.flat()[:, i].std() == pytest.approx(reading[1], rel=0.10)
+    assert abs(np.median(prior.flat()[:, i]) - free.parameters["R0"]) < 1.5 * sd_d
+    assert prior.flat()[:, i].std() < 0.5 * reading[1]

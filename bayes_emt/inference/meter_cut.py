@@ -19,7 +19,7 @@ from ..estimation.meter import Meter, move_draws
 from ..estimation.results import FitResult
 from .posterior import Posterior
 
-__all__ = ["held_fit", "cut_posterior", "cut_regression"]
+__all__ = ["held_fit", "cut_posterior", "cut_regression", "sample_with_meter"]
 
 
 def cut_regression(fit: FitResult, n_params: int) -> tuple[int, np.ndarray, np.ndarray, float]:
@@ -72,3 +72,24 @@ def cut_posterior(post: Posterior, fit: FitResult, meter: Meter, seed: int) -> P
                                                  "along the fit's regression on R0 by a draw of the reading"}}
     return replace(post, likelihood=new_lik, draws=moved, log_prob=lp.reshape(shape),
                    log_lik=ll.reshape(shape), settings=settings)
+
+
+def sample_with_meter(meas, model, meter: Meter, *, fit: FitResult | None = None, seed: int = 0,
+                      **options) -> Posterior:
+    """The posterior of ``model`` given ``meas`` and an ohmmeter reading ``meter``: under the cut,
+    sampled with ``R0`` held and moved (:func:`cut_posterior`); under ``"prior"``, with the reading as
+    ``R0``'s Normal prior. ``fit``: a fit of ``model`` under the same reading (made here when not
+    given, or when it was made without it); ``options`` go to
+    :func:`~bayes_emt.inference.sampling.sample_posterior`."""
+    from ..estimation.fitting import fit_admittance
+    from .sampling import sample_posterior
+
+    held = model.with_priors({"R0": meter.prior()}, where="re")
+    made = (fit.info.get("re") or {}) if fit is not None else {}
+    if fit is None or made.get("mode") != meter.mode or made.get("value") != meter.value \
+            or made.get("sd") != meter.sd:
+        fit = fit_admittance(meas, held, re=meter)
+    if not meter.cut:
+        return sample_posterior(meas, held, fit=fit, seed=seed, **options)
+    post = sample_posterior(meas, held, fit=held_fit(fit, meter), seed=seed, **options)
+    return cut_posterior(post, fit, meter, seed)

@@ -190,11 +190,10 @@ def _sample(args, meas, loaded, model, fit, physical, common):
         meter = fit.info.get("re") if fit is not None else None
         if meter is not None and meter["mode"] == "cut":
             from ...estimation.meter import Meter
-            from ...inference.meter_cut import cut_posterior, held_fit
+            from ...inference.meter_cut import sample_with_meter
 
             m = Meter(meter["value"], meter["sd"], "cut")
-            post = cut_posterior(sample_posterior(meas, model, fit=held_fit(fit, m), **common), fit, m,
-                                 common["seed"])
+            post = sample_with_meter(meas, model, m, fit=fit, **common)
         else:
             post = sample_posterior(meas, model, fit=fit, **common)
         print(f"model {model.label}, {meas.n_points} points, likelihood {post.likelihood.describe()}")
