@@ -216,6 +216,9 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
     p = x0.size
     sol, r, cov, x, se = solve_joint(batch, jm.params, x0, lo, hi, max_nfev)
     re_info = None if meter is None else meter.to_dict()
+    if meter is not None:  # what the free-air recording alone says of R0
+        re_info.update({k: v for k, v in (fits[0].info.get("re") or {}).items()
+                        if k in ("R0_data", "R0_data_sd", "conflict_sd")})
     if meter is not None and meter.cut and i_r0 is not None:
         r_d = batch_data(sol.x[None, :])[0]
         cov_d = covariance_z(central_jacobian(batch_data, sol.x), r_d, p)

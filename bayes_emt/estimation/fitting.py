@@ -50,7 +50,7 @@ from .adequacy import assess_fit
 from .augment import augmentation_starts
 from .checks import check_fit_inputs
 from .guess import find_initial_estimate
-from .meter import CONFLICT_SD, Meter, as_meter, cut_covariance, per_ohm
+from .meter import Meter, as_meter, conflict_warning, cut_covariance, per_ohm
 from .results import FitResult
 
 __all__ = ["fit_admittance", "covariance_z", "relative_residuals", "central_jacobian",
@@ -245,17 +245,8 @@ def _re_data(model: Model, final: _Problem, z_data, meter: Meter, info) -> tuple
         sd_data = float(abs(spec.from_z(z_data[i] + h) - spec.from_z(z_data[i] - h)) / 2.0)
     dist = abs(r0 - meter.value) / float(np.hypot(sd_data if np.isfinite(sd_data) else 0.0, meter.sd))
     info["re"].update({"R0_data": r0, "R0_data_sd": sd_data, "conflict_sd": dist})
-    if dist <= CONFLICT_SD:
-        return ()
-    held = ("R0 is held at the reading (cut) and the other parameters are fitted at it" if meter.cut
-            else "the prior pulls R0 only part of the way (mode prior)")
-    return ({"code": "re_conflict",
-             "short": f"R0 from the data {r0:.4g} ohm vs meter {meter.value:.4g} ohm ({dist:.0f} sd)",
-             "message": f"the data with model {model.label} put R0 at {r0:.5g} +/- {sd_data:.2g} ohm; the "
-                        f"ohmmeter reads {meter.value:.5g} +/- {meter.sd:.2g} ohm, {dist:.1f} combined "
-                        f"standard deviations apart: {held}. The model puts other physics into R0 "
-                        "(a missing coil or mechanical term: try diagnose), or the reading includes the "
-                        "leads."},)
+    w = conflict_warning(model.label, r0, sd_data, meter, dist)
+    return () if w is None else (w,)
 
 
 def _resonance_rule(model: Model, resonance):

@@ -39,7 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Meter", "as_meter", "RE_MODES", "PIN", "CONFLICT_SD", "cut_covariance", "move_draws", "per_ohm"]
+__all__ = ["Meter", "as_meter", "RE_MODES", "PIN", "CONFLICT_SD", "cut_covariance", "move_draws", "per_ohm",
+           "conflict_warning"]
 
 RE_MODES = ("cut", "prior")
 #: under the cut, ``R0`` is held at the reading with standard deviation ``sd·PIN``
@@ -132,6 +133,21 @@ def cut_covariance(cov_z: np.ndarray, i: int, sd_z: float) -> tuple[np.ndarray, 
     cond[:, i] = 0.0
     cond = 0.5 * (cond + cond.T)
     return cond + sd_z**2 * np.outer(v, v), v, cond
+
+
+def conflict_warning(label: str, r0: float, sd_data: float, meter: Meter, dist: float) -> dict | None:
+    """The ``re_conflict`` warning when the data's ``R0`` (``r0 ± sd_data`` [Ω], model ``label``) lies
+    more than :data:`CONFLICT_SD` combined standard deviations (``dist``) from the reading."""
+    if not dist > CONFLICT_SD:
+        return None
+    held = ("R0 is held at the reading (cut) and the other parameters are estimated at it" if meter.cut
+            else "the prior pulls R0 only part of the way (mode prior)")
+    return {"code": "re_conflict",
+            "short": f"R0 from the data {r0:.4g} ohm vs meter {meter.value:.4g} ohm ({dist:.0f} sd)",
+            "message": f"the data with model {label} put R0 at {r0:.5g} +/- {sd_data:.2g} ohm; the "
+                       f"ohmmeter reads {meter.value:.5g} +/- {meter.sd:.2g} ohm, {dist:.1f} combined "
+                       f"standard deviations apart: {held}. The model puts other physics into R0 (a missing "
+                       "coil or mechanical term: try diagnose), or the reading includes the leads."}
 
 
 def move_draws(x: np.ndarray, params, i: int, per_ohm: np.ndarray, meter: Meter,

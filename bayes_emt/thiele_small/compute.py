@@ -136,6 +136,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
     (least squares only; the arrays are then that point), ``"laplace"`` or ``"posterior"``."""
     from ..added_mass.multi import MultiMassModel, fit_multi_mass, sample_multi_mass
     from ..estimation.fitting import fit_admittance
+    from ..estimation.meter import conflict_warning
     from ..inference.meter_cut import cut_posterior, held_fit
     from ..inference.sampling import sample_posterior
 
@@ -179,6 +180,11 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         deltas = [d for _, d in inp.loaded]
         mfit = fit_multi_mass(runs, deltas, model, re=inp.re)
         jm = mfit.joint
+        re = mfit.re or {}
+        if "conflict_sd" in re:
+            w = conflict_warning(model.label, re["R0_data"], re["R0_data_sd"], meter, re["conflict_sd"])
+            if w is not None:
+                warns.append({**w, "model": model.label, "run": "free air"})
         if mfit.consistency["p_value"] < 1e-3:
             warns.append({"code": "runs_inconsistent", "model": model.label,
                           "short": f"the recordings disagree (F = {mfit.consistency['F']:.3g}): Mms, Bl "
