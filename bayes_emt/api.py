@@ -25,11 +25,13 @@ from ._record import read_record, record_from_dict
 from .discovery.diagnose import Diagnosis
 from .discovery.diagnose import diagnose as _diagnose
 from .estimation.fitting import fit_admittance
+from .estimation.meter import as_meter
 from .estimation.results import FitResult
 from .evidence.compare import CompareSettings, compare_models
 from .evidence.nested import NestedSettings
 from .evidence.records import Comparison
 from .evidence.rings import expand_rings, parse_rings, ring_choice
+from .inference.meter_cut import sample_with_meter
 from .inference.posterior import Posterior, posterior_from_datatree
 from .inference.sampling import SamplerSettings, sample_posterior
 from .io import read_measurement
@@ -84,15 +86,20 @@ def fit(meas: Measurement | str | Path, model: Model | str = "UD", *, rings: int
 
 
 def sample(meas: Measurement | str | Path, model: Model | str | None = None, *, fit: FitResult | None = None,
-           rings: int | None = None, seed: int = 0, **options) -> Posterior:
+           rings: int | None = None, seed: int = 0, re=None, **options) -> Posterior:
     """The posterior of ``model`` (default: ``fit``'s model) by emcee, started from ``fit`` (fitted
     here when not given); :func:`~bayes_emt.inference.sampling.sample_posterior` for ``options``
-    (``max_steps``, ``checkpoint``, ``resume``, ``likelihood``, ``settings``, ...)."""
+    (``max_steps``, ``checkpoint``, ``resume``, ``likelihood``, ``settings``, ...). ``re=(ohm, sd)``
+    an ohmmeter reading of R0, a cut by default, ``(ohm, sd, "prior")`` Bayes' rule
+    (:mod:`~bayes_emt.estimation.meter`)."""
     if model is None and fit is None:
         raise TypeError("sample: give a model spec (e.g. 'UD') or a fit")
     m = fit.model if model is None else as_model(model, rings=rings)
     if fit is not None and fit.model.label != m.label:
         raise ValueError(f"sample: the fit is of {fit.model.label}, the model asked for is {m.label}")
+    meter = as_meter(re)
+    if meter is not None:
+        return sample_with_meter(as_measurement(meas), m, meter, fit=fit, seed=seed, **options)
     return sample_posterior(as_measurement(meas), m, fit=fit, seed=seed, **options)
 
 
