@@ -52,7 +52,8 @@ def main() -> int:
             lines.append(f"\n--- ts UD, {'fast' if fast else 'posterior'}, re={re}")
             lines += r.summary().splitlines()
             lines.append(f"model spread: {r.inputs['model_spread']}")
-            lines += [f"warning [{w['code']}]: {w['message']}" for w in r.warnings if w["code"] == "re_conflict"]
+            lines += [f"warning [{w['code']}]: {w['message']}" for w in r.warnings
+                      if w["code"] == "re_conflict"]
     meas = full.select(2 * math.pi * BAND[0], 2 * math.pi * BAND[1])
     lines.append("\n--- R0 across coil models (least squares, free-air recording), with and without "
                  "the reading")
