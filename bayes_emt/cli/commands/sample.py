@@ -224,6 +224,12 @@ def _outputs(args, post, warns, out, ckpt, stem, plots) -> int:
 
     ts_lines = from_posterior(post).summary().splitlines()
     print("\n" + "\n".join(ln for ln in ts_lines if not ln.startswith("warn")))
+    from ...inference.sampling import conflict_message, prior_conflicts
+
+    conflicts = prior_conflicts(post.likelihood.params, post.flat())
+    if conflicts:
+        warns.append({"code": "prior_conflict", "message": conflict_message(conflicts),
+                      "parameters": [c["name"] for c in conflicts]})
     if not post.converged:
         warns.append({"code": "not_converged", "message": post.message})
     print_warnings(warns)
