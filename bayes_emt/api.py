@@ -38,7 +38,7 @@ from .io import read_measurement
 from .io.datasets import load_concealed_bench, load_paper_bench
 from .measurement import Measurement
 from .models import Model, build_model
-from .shunt import RobustShuntResult, ShuntDesign, design_rc_shunt, read_robust_shunt
+from .shunt import RobustShuntResult, ShuntDesign, design_rc_shunt
 from .shunt import robust_shunt as _robust_shunt
 from .shunt.design import design_from_json_dict
 from .thiele_small import ThieleSmall, thiele_small
@@ -213,8 +213,8 @@ def read_posterior(path: str | Path):
 
 def load(path: str | Path):
     """Any saved result: a posterior (netCDF) or a JSON record written by a result's ``.save()`` or
-    a command's ``--json`` (a fit, a comparison, a diagnosis, a shunt design, a robust shunt), by
-    its ``kind`` or, for the shunts' records, by their fields."""
+    a command's ``--json`` (a fit, a comparison, a diagnosis, a shunt design, a robust shunt, T/S),
+    by its ``kind`` (older files without one: by their fields)."""
     import json
 
     p = Path(path)
@@ -224,11 +224,11 @@ def load(path: str | Path):
         rec = json.loads(p.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError):
         return read_record(p)  # its one-line error names the file
-    if isinstance(rec, dict) and "kind" not in rec:
+    if isinstance(rec, dict) and "kind" not in rec:  # files written before these records had a kind
         if {"method", "parameters", "inputs"} <= set(rec):
             return read_thiele_small(rec)
         if {"nominal", "robust"} <= set(rec):
-            return read_robust_shunt(p)
+            return RobustShuntResult.from_json_dict(rec, where=str(p))
         if {"Rs", "Cs"} <= set(rec):
             return design_from_json_dict(rec, where=str(p))
     return record_from_dict(rec, where=str(p))
