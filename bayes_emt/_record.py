@@ -27,7 +27,7 @@ from ._json import strict_json
 from .errors import DataFormatError
 
 __all__ = ["Table", "Record", "read_record", "record_from_dict", "fmt", "render_text", "render_html",
-           "record_kinds"]
+           "record_kinds", "register_kind"]
 
 _KINDS: dict[str, type] = {}
 
@@ -159,6 +159,17 @@ class Record:
 def record_kinds() -> dict[str, type]:
     """The record classes by ``kind`` (those whose modules have been imported)."""
     return dict(_KINDS)
+
+
+def register_kind(cls: type) -> type:
+    """Register a record class that does not mix in :class:`Record` (its own summary and HTML) but
+    writes a ``"kind"`` (``cls.kind``) and reads back with ``cls.from_json_dict``; returns ``cls``
+    (usable as a class decorator)."""
+    kind = getattr(cls, "kind", "")
+    if not kind or not callable(getattr(cls, "from_json_dict", None)):
+        raise TypeError(f"{cls.__name__}: a registered record needs a 'kind' and from_json_dict")
+    _KINDS[kind] = cls
+    return cls
 
 
 def read_record(path: str | Path):

@@ -25,18 +25,20 @@ from ._record import read_record, record_from_dict
 from .discovery.diagnose import Diagnosis
 from .discovery.diagnose import diagnose as _diagnose
 from .estimation.fitting import fit_admittance
+from .estimation.meter import as_meter
 from .estimation.results import FitResult
 from .evidence.compare import CompareSettings, compare_models
 from .evidence.nested import NestedSettings
 from .evidence.records import Comparison
 from .evidence.rings import expand_rings, parse_rings, ring_choice
+from .inference.meter_cut import sample_with_meter
 from .inference.posterior import Posterior, posterior_from_datatree
 from .inference.sampling import SamplerSettings, sample_posterior
 from .io import read_measurement
 from .io.datasets import load_concealed_bench, load_paper_bench
 from .measurement import Measurement
 from .models import Model, build_model
-from .shunt import RobustShuntResult, ShuntDesign, design_rc_shunt, read_robust_shunt
+from .shunt import RobustShuntResult, ShuntDesign, design_rc_shunt
 from .shunt import robust_shunt as _robust_shunt
 from .shunt.design import design_from_json_dict
 from .thiele_small import ThieleSmall, thiele_small
@@ -84,15 +86,20 @@ def fit(meas: Measurement | str | Path, model: Model | str = "UD", *, rings: int
 
 
 def sample(meas: Measurement | str | Path, model: Model | str | None = None, *, fit: FitResult | None = None,
-           rings: int | None = None, seed: int = 0, **options) -> Posterior:
+           rings: int | None = None, seed: int = 0, re=None, **options) -> Posterior:
     """The posterior of ``model`` (default: ``fit``'s model) by emcee, started from ``fit`` (fitted
     here when not given); :func:`~bayes_emt.inference.sampling.sample_posterior` for ``options``
-    (``max_steps``, ``checkpoint``, ``resume``, ``likelihood``, ``settings``, ...)."""
+    (``max_steps``, ``checkpoint``, ``resume``, ``likelihood``, ``settings``, ...). ``re=(ohm, sd)``
+    an ohmmeter reading of R0, a cut by default, ``(ohm, sd, "prior")`` Bayes' rule
+    (:mod:`~bayes_emt.estimation.meter`)."""
     if model is None and fit is None:
         raise TypeError("sample: give a model spec (e.g. 'UD') or a fit")
     m = fit.model if model is None else as_model(model, rings=rings)
     if fit is not None and fit.model.label != m.label:
         raise ValueError(f"sample: the fit is of {fit.model.label}, the model asked for is {m.label}")
+    meter = as_meter(re)
+    if meter is not None:
+        return sample_with_meter(as_measurement(meas), m, meter, fit=fit, seed=seed, **options)
     return sample_posterior(as_measurement(meas), m, fit=fit, seed=seed, **options)
 
 
@@ -206,8 +213,8 @@ def read_posterior(path: str | Path):
 
 def load(path: str | Path):
     """Any saved result: a posterior (netCDF) or a JSON record written by a result's ``.save()`` or
-    a command's ``--json`` (a fit, a comparison, a diagnosis, a shunt design, a robust shunt), by
-    its ``kind`` or, for the shunts' records, by their fields."""
+    a command's ``--json`` (a fit, a comparison, a diagnosis, a shunt design, a robust shunt, T/S),
+    by its ``kind`` (older files without one: by their fields)."""
     import json
 
     p = Path(path)
@@ -217,11 +224,11 @@ def load(path: str | Path):
         rec = json.loads(p.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError):
         return read_record(p)  # its one-line error names the file
-    if isinstance(rec, dict) and "kind" not in rec:
+    if isinstance(rec, dict) and "kind" not in rec:  # files written before these records had a kind
         if {"method", "parameters", "inputs"} <= set(rec):
             return read_thiele_small(rec)
         if {"nominal", "robust"} <= set(rec):
-            return read_robust_shunt(p)
+            return RobustShuntResult.from_json_dict(rec, where=str(p))
         if {"Rs", "Cs"} <= set(rec):
             return design_from_json_dict(rec, where=str(p))
     return record_from_dict(rec, where=str(p))

@@ -52,3 +52,21 @@ def test_load_names_a_file_that_is_no_result(tmp_path):
     p.write_text("{not json")
     with pytest.raises(be.DataFormatError, match=r"x.json:1: not JSON"):
         be.load(p)
+
+
+def test_a_shunt_design_saved_and_loaded_by_its_kind(ud_fit, tmp_path):
+    """A shunt design's file says its kind; ``be.load`` reads it by that kind, and a file without
+    one (written before) still by its fields."""
+    d = be.design_shunt(ud_fit)
+    path = tmp_path / "shunt.json"
+    d.save(path)
+    rec = json.loads(path.read_text())
+    assert rec["kind"] == "shunt_design"
+    back = be.load(path)
+    assert type(back) is type(d)
+    assert back.Rs == pytest.approx(d.Rs, rel=1e-12) and back.Cs == pytest.approx(d.Cs, rel=1e-12)
+    assert back.stability_margin_ohm == pytest.approx(d.stability_margin_ohm, rel=1e-12)
+    del rec["kind"]
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps(rec))
+    assert be.load(old).Rs == pytest.approx(d.Rs, rel=1e-12)

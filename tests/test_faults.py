@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import errno
 import hashlib
+import json
 import os
 import random
 import re
@@ -418,13 +419,16 @@ def test_prior_far_from_the_data_is_named(tmp_path, capsys):
     pri = tmp_path / "far.toml"
     pri.write_text('[R0]\ndist = "lognormal"\nmedian = 5.0\nsigma_log = 0.02\n')
     rc = main(["sample", str(DATA), "--model", "I", "--priors", str(pri), "--max-steps", "300", "--quiet",
-               "--out", str(tmp_path / "r.nc")])
+               "--out", str(tmp_path / "r.nc"), "--json", str(tmp_path / "r.json")])
     assert rc == 1  # 300 steps: not converged; the message leads with the cause
     cap = capsys.readouterr()
     named = (r"the posterior lies in the far tail of the prior of R0 \(posterior median 2.6\d ohm, "
              r"3\d.\d prior standard deviations below the prior's centre 5 ohm\)")
     assert re.search("NOT CONVERGED: " + named, cap.out), cap.out
     assert re.search("bayes-emt: warning: .*" + named, cap.err) and "Traceback" not in cap.err
+    warns = json.loads((tmp_path / "r.json").read_text())["warnings"]
+    coded = [w for w in warns if w["code"] == "prior_conflict"]
+    assert len(coded) == 1 and coded[0]["parameters"] == ["R0"] and re.search(named, coded[0]["message"])
 
 
 def test_prior_conflict_library_warning():

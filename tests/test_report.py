@@ -76,10 +76,12 @@ def run_dir(tmp_path):
     _write(d, "robust_shunt.json", {
         "nominal": {"Rs": -2.3957, "Cs": 0.08122,
                     "attenuation_db": {"median": -24.6, "q05": -24.9, "q95": -23.1},
-                    "p_unstable": 0.004, "p_unstable_ci": [0.001, 0.01]},
+                    "p_unstable": 0.004, "p_unstable_ci": [0.001, 0.01],
+                    "stability_margin_ohm": 0.0094, "r0_uncertainty_ohm": 0.0231},
         "robust": {"Rs": -2.3801, "Cs": 0.0831,
                    "attenuation_db": {"median": -24.4, "q05": -24.7, "q95": -23.9},
-                   "p_unstable": 0.0, "p_unstable_ci": [0.0, 0.0007]},
+                   "p_unstable": 0.0, "p_unstable_ci": [0.0, 0.0007],
+                   "stability_margin_ohm": 0.0251, "r0_uncertainty_ohm": 0.0231},
         "per_draw": {"Rs": {"median": -2.39, "q05": -2.40, "q95": -2.38},
                      "Cs": {"median": 0.081, "q05": 0.080, "q95": 0.083},
                      "attenuation_db": {"median": -24.7, "q05": -24.9, "q95": -24.5}},
@@ -129,6 +131,11 @@ def test_every_section_renders_from_its_saved_output_with_units_and_warnings_on_
     assert "a second mode at 398 Hz explains the swing around 400 Hz" in html
     assert "-1119.42 ± 0.70" in html and "very strong" in html
     assert "<b class=\"bad\">unstable</b>" in html  # the II design evaluated on I
+    # the robust shunts' stability margins beside R0's uncertainty; the nominal's is below it
+    assert "stability margin [Ω]" in html
+    assert re.search(r'<td class="warn" title="the margin is below R0\'s uncertainty">0.0094</td>'
+                     r"<td>0.0231</td>", html)
+    assert re.search(r"<td>0.0251</td><td>0.0231</td>", html)
     # every figure embedded, none linked
     assert len(re.findall(r'<img src="data:image/png;base64,', html)) == len(COLOURS)
     assert not re.search(r'<img src="(?!data:)', html)

@@ -199,6 +199,11 @@ def test_robust_shunt_mixture_weights_and_roundtrip(posts, tmp_path):
     np.testing.assert_array_equal(back.Rs, res.Rs)
     np.testing.assert_array_equal(back.robust_attenuation_db, res.robust_attenuation_db)
     assert back.robust == res.robust and back.warnings == res.warnings
+    assert json.loads(path.read_text())["kind"] == "robust_shunt"
+    import bayes_emt as be
+
+    loaded = be.load(path)  # by its kind
+    assert type(loaded) is type(res) and loaded.robust == res.robust
 
 
 def test_robust_shunt_margin_warning_from_an_ohmmeter(posts):

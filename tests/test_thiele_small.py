@@ -129,7 +129,7 @@ def test_bad_inputs_raise_one_line_errors(tmp_path):
         read_thiele_small(bad)
 
 
-def test_re_penalty_combines_meter_and_data_as_gaussians():
+def test_re_prior_mode_combines_meter_and_data_as_gaussians():
     """The penalised R0 is the precision-weighted mean of the fit's R0 (its standard error σ_d)
     and the reading (its sd) — to 10 % of the shift (the fit is not exactly linear) — whether
     the data pin R0 (sd 5 σ_d: R0 barely moves) or not (sd σ_d/5: R0 goes to the meter)."""
@@ -139,7 +139,7 @@ def test_re_penalty_combines_meter_and_data_as_gaussians():
     r0, sd_d = free.parameters["R0"], free.stderr["R0"]
     meter = r0 + 3 * sd_d
     for sd in (5 * sd_d, sd_d / 5):
-        pen = fit_admittance(sim.free, model, re=(meter, sd))
+        pen = fit_admittance(sim.free, model, re=(meter, sd, "prior"))
         w = (1 / sd_d**2) / (1 / sd_d**2 + 1 / sd**2)
         expect = w * r0 + (1 - w) * meter
         got = pen.parameters["R0"]

@@ -157,6 +157,7 @@ class MultiMassFit:
     rms_rel_residual: tuple[float, ...]
     success: bool
     message: str = ""
+    re: dict | None = None
 
     @property
     def theta(self) -> np.ndarray:
@@ -169,16 +170,22 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
     """Joint fit of a free-air run ``runs[0]`` and loaded runs ``runs[1:]`` (added ``deltas`` [kg]).
 
     Minimises ``Σ_runs Σ_ω |Y_model − Y|²/(|Y|² s_run²)`` (each run scaled by its own separate-fit
-    residual scale ``s_run``) plus, with ``re = (R_meter, sd)`` [Ω], the penalty
-    ``((R0 − R_meter)/sd)²`` (an ohmmeter reading as a Gaussian constraint).
+    residual scale ``s_run``) plus, with an ohmmeter reading ``re``
+    (:func:`~bayes_emt.estimation.meter.as_meter`), the penalty ``((R0 − R_meter)/sd_held)²``:
+    mode ``"prior"`` a Gaussian constraint of the reading's sd; mode ``"cut"`` (default) ``R0``
+    held at the reading, the covariance the data's given ``R0`` plus the reading's variance
+    through each parameter's regression on ``R0`` (``re`` on the result records it).
     """
-    from ..estimation.fitting import fit_admittance
+    from ..estimation.fitting import central_jacobian, covariance_z, fit_admittance
+    from ..estimation.meter import as_meter, cut_covariance, per_ohm
+
+    meter = as_meter(re)
 
     if len(runs) != len(deltas) + 1:
         raise ValueError(f"{len(runs)} recordings need {len(runs) - 1} added masses, got {len(deltas)}")
     jm = MultiMassModel(model, tuple(deltas))
     if fits is None:
-        fits = [fit_admittance(meas, model, re=re) for meas in runs]
+        fits = [fit_admittance(meas, model, re=meter) for meas in runs]
     chi2_sep, noise = [], []
     for meas, f in zip(runs, fits, strict=True):
         r = _rel_residuals(model, meas, f.theta)
@@ -188,14 +195,18 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
         noise = [1.0] * len(runs)
     i_r0 = jm.names.index("R0") if "R0" in jm.names else None
 
-    def batch(z):
+    def batch_data(z):
         x = jm.params.from_z(z)
-        parts = [_rel_residuals(model, meas, th) / s
-                 for meas, th, s in zip(runs, jm.thetas(x), noise, strict=True)]
-        if re is not None and i_r0 is not None:
-            parts.append(((x[..., i_r0] - re[0]) / re[1])[..., None])
-        out = np.concatenate(parts, axis=-1)
+        out = np.concatenate([_rel_residuals(model, meas, th) / s
+                              for meas, th, s in zip(runs, jm.thetas(x), noise, strict=True)], axis=-1)
         return np.where(np.isfinite(out), out, 1e10)
+
+    def batch(z):
+        if meter is None or i_r0 is None:
+            return batch_data(z)
+        x = jm.params.from_z(z)
+        pen = ((x[..., i_r0] - meter.value) / meter.held_sd)[..., None]
+        return np.concatenate([batch_data(z), np.where(np.isfinite(pen), pen, 1e10)], axis=-1)
 
     x0 = jm.start(fits)
     lo, hi = jm.params.bounds_z()
@@ -204,6 +215,21 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
         lo[0] = max(lo[0], float(jm.params[0].to_z(-min(neg) * (1 + 1e-9))))
     p = x0.size
     sol, r, cov, x, se = solve_joint(batch, jm.params, x0, lo, hi, max_nfev)
+    re_info = None if meter is None else meter.to_dict()
+    if meter is not None:  # what the free-air recording alone says of R0
+        re_info.update({k: v for k, v in (fits[0].info.get("re") or {}).items()
+                        if k in ("R0_data", "R0_data_sd", "conflict_sd")})
+    if meter is not None and meter.cut and i_r0 is not None:
+        r_d = batch_data(sol.x[None, :])[0]
+        cov_d = covariance_z(central_jacobian(batch_data, sol.x), r_d, p)
+        if cov_d is not None:
+            sd_z = meter.sd_z(jm.params[i_r0])
+            cov, v, _ = cut_covariance(cov_d, i_r0, sd_z)
+            sez = np.sqrt(np.clip(np.diag(cov), 0, None))
+            se = np.array([abs(xv) * s if spec.transform == "log" else s
+                           for spec, xv, s in zip(jm.params, x, sez, strict=True)])
+            re_info.update({"sd_z": sd_z, "sensitivity_z": [float(t) for t in v],
+                            "sensitivity_per_ohm": [float(t) for t in per_ohm(v, sd_z, meter)]})
     thetas = jm.thetas(x)
     chi2_joint = float(r @ r)
     chi2_s = sum(c / s**2 for c, s in zip(chi2_sep, noise, strict=True))
@@ -216,7 +242,8 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
                         stderr=dict(zip(jm.names, map(float, se), strict=True)), cov_z=cov,
                         runs=tuple(model.as_dict(t) for t in thetas), noise_rel=tuple(noise),
                         consistency={"F": float(F), "dof": [q, dof], "p_value": pval},
-                        rms_rel_residual=rms, success=bool(sol.status > 0), message=str(sol.message))
+                        rms_rel_residual=rms, success=bool(sol.status > 0), message=str(sol.message),
+                        re=re_info)
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,12 +294,17 @@ class MultiMassLikelihood(SamplingSpaceDensity):
 
 def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: Model, *,
                       fit: MultiMassFit | None = None, seed: int = 0, settings=None,
-                      progress: bool | None = False):
+                      progress: bool | None = False, meter=None):
     """Joint posterior of the runs (emcee, the stopping rule of :mod:`bayes_emt.inference.sampling`).
+
+    ``meter``: an ohmmeter reading under the cut (:mod:`bayes_emt.estimation.meter`; ``model``'s
+    prior then holds ``R0`` at it and ``fit`` is the cut fit): the sampler starts from the fit's
+    covariance given ``R0`` and each draw is then moved to the cut posterior.
 
     Returns ``(draws (n, p_joint) [SI], info)`` with ``info``: ``converged``, ``message``,
     ``wall_time`` [s], ``n_draws``, ``tau_max``.
     """
+    from ..estimation.meter import move_draws
     from ..inference.posterior import Posterior
     from ..inference.sampling import SamplerSettings, noise_start, run_ensemble, start_ball
 
@@ -282,10 +314,23 @@ def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], mode
     lik = MultiMassLikelihood(jm, tuple(runs))
     fit = fit_multi_mass(runs, deltas, model) if fit is None else fit
 
+    cut = None
+    if meter is not None and meter.cut:
+        if not (fit.re or {}).get("sensitivity_z"):
+            raise ValueError("sample_multi_mass: a cut needs the cut fit (fit_multi_mass(..., re=meter))")
+        i0 = jm.names.index("R0")
+        cut = (i0, np.asarray(fit.re["sensitivity_z"], float), float(fit.re["sd_z"]),
+               np.asarray(fit.re["sensitivity_per_ohm"], float))
+
     def start(nwalkers):
         z0 = jm.params.to_z(fit.theta)
         cov = fit.cov_z if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)) else \
             np.diag((1e-3 * np.maximum(np.abs(z0), 1.0)) ** 2)
+        if cut is not None and fit.cov_z is not None:  # given R0, R0 itself held sd·PIN wide
+            i0, v, sd_z, _ = cut
+            cov = np.array(cov, float) - sd_z**2 * np.outer(v, v)
+            cov[i0, :] = cov[:, i0] = 0.0
+            cov[i0, i0] = (meter.held_sd / meter.sd * sd_z) ** 2
         centre, spread = [], []
         for meas, rms in zip(runs, fit.rms_rel_residual, strict=True):
             c, s = noise_start(rms, float(np.min(np.abs(meas.Y))))
@@ -296,6 +341,9 @@ def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], mode
     run = run_ensemble(lik, start, seed=seed, progress=progress, settings=settings)
     post = Posterior.from_chain(lik, **run)
     draws = post.flat()[:, : len(jm.params)]
+    if cut is not None:
+        draws = move_draws(draws, jm.params, cut[0], cut[3], meter,
+                           np.random.default_rng([int(seed), 0x0E7E]))
     return draws, {"converged": bool(run["converged"]), "message": run["message"],
                    "wall_time": time.perf_counter() - t0, "n_draws": int(draws.shape[0]),
                    "tau_max": float(np.max(run["tau"]))}

@@ -50,6 +50,7 @@ from .adequacy import assess_fit
 from .augment import augmentation_starts
 from .checks import check_fit_inputs
 from .guess import find_initial_estimate
+from .meter import Meter, as_meter, conflict_warning, cut_covariance, per_ohm
 from .results import FitResult
 
 __all__ = ["fit_admittance", "covariance_z", "relative_residuals", "central_jacobian",
@@ -208,26 +209,44 @@ def _starts(meas: Measurement, model: Model, initial, max_nfev):
         "global_stage": ie.details.get("global_stage", False), "alternatives": len(ie.alternatives)}
 
 
-def _re_polish(model: Model, final: _Problem, z, lo, hi, re, max_nfev, info):
-    """The ``re=(R_meter, sd)`` option of :func:`fit_admittance`: the penalised residual and its optimum."""
-    value, sd = (float(v) for v in re)
-    if not (np.isfinite(value) and value > 0 and np.isfinite(sd) and sd > 0):
-        raise ValueError(f"re must be (ohms > 0, sd > 0), got {re!r}")
+def _re_polish(model: Model, final: _Problem, z, lo, hi, meter: Meter, max_nfev, info):
+    """The ``re`` option of :func:`fit_admittance` (:mod:`.meter`): the penalised residual and its
+    optimum; the penalty's standard deviation is the reading's (``"prior"``) or ``sd·PIN`` (the
+    cut: ``R0`` held at the reading)."""
     if "R0" not in model.names:
         raise ValueError(f"model {model.label} has no R0 to constrain with an ohmmeter reading")
     i = model.names.index("R0")
     r0 = final.residuals(z)
     scale = float(np.sqrt(r0 @ r0 / max(r0.size - model.ndim, 1)))
+    value, held = meter.value, meter.held_sd
 
     def batch(zb):
         zb = np.asarray(zb, float)
-        pen = scale * (model.params[i].from_z(zb[..., i]) - value) / sd
+        pen = scale * (model.params[i].from_z(zb[..., i]) - value) / held
         return np.concatenate([final.batch(zb), pen[..., None]], axis=-1)
 
     sol = batched_least_squares(batch, z, lo, hi, max_nfev=max_nfev)
-    info["re"] = {"value": value, "sd": sd, "R0_before": float(model.params[i].from_z(z[i])),
+    info["re"] = {**meter.to_dict(), "R0_before": float(model.params[i].from_z(z[i])),
                   "R0_after": float(model.params[i].from_z(sol.x[i])), "residual_scale": scale}
     return batch, sol.x
+
+
+def _re_data(model: Model, final: _Problem, z_data, meter: Meter, info) -> tuple[dict, ...]:
+    """What the data alone say of ``R0`` (at the unpenalised optimum ``z_data``) against the reading:
+    ``info["re"]`` gains ``R0_data``, ``R0_data_sd`` [Ω] and ``conflict_sd`` (their distance in
+    combined standard deviations); a ``re_conflict`` warning beyond :data:`.meter.CONFLICT_SD`."""
+    i = model.names.index("R0")
+    spec = model.params[i]
+    cov = covariance_z(central_jacobian(final.batch, z_data), final.batch(z_data[None, :])[0], model.ndim)
+    r0 = float(spec.from_z(z_data[i]))
+    sd_data = float("nan")
+    if cov is not None and cov[i, i] > 0:
+        h = float(np.sqrt(cov[i, i]))
+        sd_data = float(abs(spec.from_z(z_data[i] + h) - spec.from_z(z_data[i] - h)) / 2.0)
+    dist = abs(r0 - meter.value) / float(np.hypot(sd_data if np.isfinite(sd_data) else 0.0, meter.sd))
+    info["re"].update({"R0_data": r0, "R0_data_sd": sd_data, "conflict_sd": dist})
+    w = conflict_warning(model.label, r0, sd_data, meter, dist)
+    return () if w is None else (w,)
 
 
 def _resonance_rule(model: Model, resonance):
@@ -264,7 +283,7 @@ def _rejection(model: Model, z, cost: float, final, where: str) -> dict:
 def fit_admittance(meas: Measurement, model: Model, *, initial=None,
                    omega_range: tuple[float | None, float | None] | None = None,
                    polish: bool = True, max_nfev: int | None = None,
-                   re: tuple[float, float] | None = None) -> FitResult:
+                   re=None) -> FitResult:
     """Fit ``model`` to ``meas`` from the automatic initial estimate (SPEC §3.1–3.2).
 
     Parameters
@@ -278,10 +297,15 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         residuals at that point.
     max_nfev : evaluation budget of the final polish (default 25 per parameter; the intermediate
         steps get at most 30 per parameter). A polish that runs out reports ``success=False``.
-    re : an ohmmeter reading ``(R_meter, sd)`` [Ω]: after the fit, one more polish adds the
-        penalty residual ``s (R0 − R_meter)/sd`` (``s`` the fit's residual scale, so the penalty
-        weighs as a Gaussian constraint of standard deviation ``sd`` against the data); the
-        covariance includes it. ``info["re"]`` records it.
+    re : an ohmmeter reading (:func:`~bayes_emt.estimation.meter.as_meter`: ohms, ``(ohms, sd)``,
+        ``(ohms, sd, mode)`` or a :class:`~bayes_emt.estimation.meter.Meter`): after the fit, one
+        more polish adds the penalty residual ``s (R0 − R_meter)/sd_held`` (``s`` the fit's residual
+        scale, so the penalty weighs as a Gaussian constraint against the data). Mode ``"cut"``
+        (default) holds ``R0`` at the reading (``sd_held = sd·PIN``); ``chi2`` and the covariance are
+        the data's at that point, plus the reading's variance carried through each parameter's
+        regression on ``R0`` (:mod:`~bayes_emt.estimation.meter`). Mode ``"prior"``: ``sd_held = sd``
+        and the covariance includes the penalty. ``info["re"]`` records the reading, the data-only
+        ``R0_data`` ± ``R0_data_sd`` and ``conflict_sd``; beyond 3 a ``re_conflict`` warning.
 
     Returns
     -------
@@ -375,11 +399,16 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     if rejected:
         info["rejected"] = rejected
     batch = final.batch
-    if re is not None:
-        batch, z = _re_polish(model, final, z, lo, hi, re, max_nfev, info)
+    meter = as_meter(re)
+    z_data = z
+    if meter is not None:
+        batch, z = _re_polish(model, final, z, lo, hi, meter, max_nfev, info)
     theta = model.params.from_z(z)
     if not np.all(np.isfinite(theta)):
         raise FitError(f"{meas.source}: the fit of model {model.label} diverged")
+    if meter is not None and meter.cut:
+        # the cut: data-only residuals and Jacobian at the held R0, then the reading's variance
+        batch = final.batch
     r = batch(z[None, :])[0]
     J = central_jacobian(batch, z)
     rel = relative_residuals(model, meas, theta)
@@ -390,8 +419,17 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     if at_bound:
         info["at_prior_bound"] = at_bound
     cov = covariance_z(J, r, k)
+    re_warns = ()
+    if meter is not None:
+        re_warns = _re_data(model, final, z_data, meter, info)
+        if meter.cut and cov is not None:
+            i = model.names.index("R0")
+            sd_z = meter.sd_z(model.params[i])
+            cov, v, _ = cut_covariance(cov, i, sd_z)
+            info["re"].update({"sd_z": sd_z,
+                               "sensitivity_per_ohm": [float(x) for x in per_ohm(v, sd_z, meter)]})
     warns = assess_fit(model, meas, theta, z=z, bounds_z=(lo, hi), cov_z=cov, jacobian=J, resonance=resonance,
-                       info=info)
+                       info=info) + re_warns
     return FitResult(model=model, theta=theta, cov_z=cov,
                      chi2=float(r @ r), rms_rel_residual=float(np.sqrt(np.mean(np.abs(rel) ** 2))),
                      n_points=meas.n_points, success=bool(sol.status > 0), message=str(sol.message),

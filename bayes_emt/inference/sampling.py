@@ -109,7 +109,8 @@ from .start import initial_walkers, noise_start, start_ball
 __all__ = ["SamplerSettings", "SnookerMove", "default_moves", "initial_walkers", "stopping_rule",
            "integrated_time", "integrated_time_stuck",
            "sample_posterior", "sample_likelihood",
-           "run_ensemble", "start_ball", "noise_start", "checkpoint_steps", "check_checkpoint"]
+           "run_ensemble", "start_ball", "noise_start", "checkpoint_steps", "check_checkpoint",
+           "prior_conflicts", "conflict_message"]
 
 
 @dataclass(frozen=True)
@@ -292,7 +293,8 @@ def prior_conflicts(params, draws: np.ndarray) -> list[dict]:
     return out
 
 
-def _conflict_message(conflicts: list[dict]) -> str:
+def conflict_message(conflicts: list[dict]) -> str:
+    """One sentence naming each parameter of :func:`prior_conflicts` and what to do."""
     parts = [f"{c['name']} (posterior median {c['median']:.4g} {c['unit']}, {c['how']})" for c in conflicts]
     return ("the posterior lies in the far tail of the prior of " + "; ".join(parts)
             + ": the prior contradicts the data there; widen or recentre it (--priors), or check the data")
@@ -548,7 +550,7 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
         conflicts = prior_conflicts(target.params, target.params.from_z(chain[burn:].reshape(-1, ndim)))
     if conflicts:
         # the specific cause first: a chain stuck in the prior's far tail also fails to converge
-        conflict = _conflict_message(conflicts)
+        conflict = conflict_message(conflicts)
         message = (f"{conflict} ({message})" if not verdict["converged"] else f"{message}; but {conflict}")
         warnings.warn(f"{target.label}: {conflict}", PriorConflictWarning, stacklevel=3)
     if not verdict["converged"]:

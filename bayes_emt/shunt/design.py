@@ -27,11 +27,13 @@ import math
 import warnings
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 from scipy import optimize
 
 from .._json import strict_json
+from .._record import register_kind
 from ..errors import DataFormatError
 from ..models import Model
 from .receptance import Plant, rc_impedance
@@ -118,10 +120,20 @@ class ShuntDesign(ShuntEvaluation):
     warnings: tuple = ()
     notes: tuple = ()
 
+    kind: ClassVar[str] = "shunt_design"
+
     @property
     def R0(self) -> float:
         """The R0 [Ω] the design assumed."""
         return float(self.info.get("R0", math.nan))
+
+    def to_json_dict(self) -> dict:
+        """:meth:`ShuntEvaluation.to_json_dict` with ``"kind": "shunt_design"`` (``be.load`` reads it)."""
+        return {"kind": self.kind, **super().to_json_dict()}
+
+    @classmethod
+    def from_json_dict(cls, rec: dict) -> ShuntDesign:
+        return design_from_json_dict(rec)
 
     def __repr__(self) -> str:
         return (f"ShuntDesign({self.model}: Rs={self.Rs:.5g} ohm, Cs={self.Cs:.4g} F, "
@@ -413,3 +425,6 @@ def design_from_json_dict(rec: dict, *, where: str = "shunt design"):
 def read_shunt_design(path: str | Path):
     """Read a design written by :meth:`ShuntDesign.save` (or ``shunt --json``)."""
     return design_from_json_dict(read_json_record(path, "shunt design"), where=str(path))
+
+
+register_kind(ShuntDesign)

@@ -19,10 +19,12 @@ import math
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
 from .._json import strict_json
+from .._record import register_kind
 from ..errors import DataFormatError
 from .draws import mixture_weights, sample_mixture
 from .records import html_table, read_json_record, table
@@ -117,6 +119,21 @@ class RobustShuntResult:
                    np.asarray(res.optimum_attenuation), np.asarray(res.nominal.attenuation),
                    np.asarray(res.robust.attenuation), np.asarray(res.held), tuple(res.warnings), rep, res)
 
+    kind: ClassVar[str] = "robust_shunt"
+
+    @classmethod
+    def from_json_dict(cls, rec: dict, *, where: str = "robust-shunt result") -> RobustShuntResult:
+        """Rebuild from :meth:`to_json_dict` (``detail`` is ``None``)."""
+        if not isinstance(rec, dict) or not {"nominal", "robust", "draws"} <= set(rec):
+            raise DataFormatError(f"{where}: not a robust-shunt result (needs 'nominal', 'robust' and "
+                                  "'draws')")
+        rec = {k: v for k, v in rec.items() if k != "kind"}
+        d = rec.pop("draws")
+        warns = tuple(rec.pop("warnings", ()))
+        return cls(rec["nominal"], rec["robust"], _back(d["Rs"]), _back(d["Cs"]), _back(d["attenuation_db"]),
+                   _back(d["nominal_attenuation_db"], True), _back(d["robust_attenuation_db"], True),
+                   np.array(d["held"], bool), warns, {**rec, "warnings": list(warns)}, None)
+
     @property
     def p_unstable(self) -> dict:
         """P(unstable) on the held-back draws of each shunt."""
@@ -159,7 +176,8 @@ class RobustShuntResult:
 
     def to_json_dict(self) -> dict:
         """The report plus the per-draw arrays (strict JSON: non-finite numbers as null)."""
-        return strict_json({**self.report, "warnings": list(self.warnings),
+        return strict_json({"kind": self.kind, **{k: v for k, v in self.report.items() if k != "kind"},
+                            "warnings": list(self.warnings),
                             "draws": {"Rs": _arr(self.Rs), "Cs": _arr(self.Cs),
                                       "attenuation_db": _arr(self.attenuation_db),
                                       "nominal_attenuation_db": _arr(self.nominal_attenuation_db),
@@ -190,15 +208,7 @@ def _back(v, inf_for_null=False) -> np.ndarray:
 
 def read_robust_shunt(path) -> RobustShuntResult:
     """Read :meth:`RobustShuntResult.save` output back (``detail`` is ``None``)."""
-    rec = read_json_record(path, "robust-shunt result")
-    if not isinstance(rec, dict) or not {"nominal", "robust", "draws"} <= set(rec):
-        raise DataFormatError(f"{path}: not a robust-shunt result (needs 'nominal', 'robust' and 'draws')")
-    d = rec.pop("draws")
-    warns = tuple(rec.pop("warnings", ()))
-    return RobustShuntResult(rec["nominal"], rec["robust"], _back(d["Rs"]), _back(d["Cs"]),
-                             _back(d["attenuation_db"]), _back(d["nominal_attenuation_db"], True),
-                             _back(d["robust_attenuation_db"], True), np.array(d["held"], bool), warns,
-                             {**rec, "warnings": list(warns)}, None)
+    return RobustShuntResult.from_json_dict(read_json_record(path, "robust-shunt result"), where=str(path))
 
 
 def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
@@ -258,3 +268,6 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
                               boundary_points=boundary_points, notes=notes + warns,
                               ohmmeter_tolerance=ohmmeter_tolerance, progress=tell if progress else None)
     return RobustShuntResult.from_robust(res)
+
+
+register_kind(RobustShuntResult)

@@ -38,7 +38,9 @@ model's physics terms, plus the main model itself) that pass three tests, in thi
    candidates left after 1–2) at least :data:`SPREAD_MIN_PROBABILITY`, with ``log Z`` the Laplace
    approximation at the least-squares fit (:func:`~bayes_emt.evidence.fit_evidence.fit_log_evidence`
    for one recording; the joint likelihood of all recordings for added mass; the sum of the two
-   recordings' for added volume). A candidate whose Laplace evidence fails is kept (no evidence to
+   recordings' for added volume). With an ohmmeter reading, log Z is that of the data with the
+   reading as a Normal prior on R0 (Bayes' rule) whichever mode the estimates use: the reading
+   informs every candidate alike. A candidate whose Laplace evidence fails is kept (no evidence to
    weigh it by) and listed under ``no_evidence``.
 
 This is the spread "weighted by evidence": a model the evidence rules out carries no weight, the
@@ -51,8 +53,10 @@ recordings with thousands of points the evidence usually leaves one model (diffe
 hundreds of nats when the rms differs by a few per cent), so the spread says that the coil models
 disagree only when the data cannot tell them apart.
 
-An ohmmeter reading ``re=(R, sd)`` [Ω] enters the fits as a penalty and the posterior as a
-Normal prior on R0 (:func:`~bayes_emt.estimation.fitting.fit_admittance`'s ``re``).
+An ohmmeter reading ``re=(R, sd)`` [Ω] gives Re: by default (mode ``"cut"``,
+:mod:`bayes_emt.estimation.meter`) R0 follows the reading alone and every other parameter is
+estimated at it, in the fits and the posteriors; with ``(R, sd, "prior")`` it is a Normal prior on
+R0 combined with the data (a penalty for least squares).
 """
 
 from __future__ import annotations
@@ -67,7 +71,6 @@ import numpy as np
 from ..errors import DataFormatError
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
-from ..params import Normal
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
@@ -99,20 +102,12 @@ def _ts_sampler():
 TS_SAMPLER = None  # built lazily by _ts_sampler (inference is imported on use)
 
 
-def parse_re(re) -> tuple[float, float] | None:
-    """``re`` as ``(ohms, sd)``: a number means a 1 % standard deviation."""
-    if re is None:
-        return None
-    if isinstance(re, int | float):
-        value, sd = float(re), 0.01 * float(re)
-    else:
-        try:
-            value, sd = (float(v) for v in re)
-        except (TypeError, ValueError):
-            raise ValueError(f"re must be ohms or (ohms, sd), got {re!r}") from None
-    if not (math.isfinite(value) and value > 0 and math.isfinite(sd) and sd > 0):
-        raise ValueError(f"re must be a positive resistance [ohm] with a positive sd, got {re!r}")
-    return value, sd
+def parse_re(re, mode: str | None = None):
+    """``re`` as a :class:`~bayes_emt.estimation.meter.Meter` (ohms with a 1 % sd, ``(ohms, sd)``,
+    ``(ohms, sd, mode)``; mode ``"cut"`` by default), or ``None``."""
+    from ..estimation.meter import as_meter
+
+    return as_meter(re, mode)
 
 
 def _measurement(x, where: str, read_options: dict | None, f_range_hz, exclude_band=None) -> Measurement:
@@ -270,10 +265,13 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
     ``"posterior"``. The spread record: ``{"model", "rms", "undetermined", "log_z"}``."""
     from ..added_mass.multi import MultiMassModel, fit_multi_mass, sample_multi_mass
     from ..estimation.fitting import fit_admittance
+    from ..estimation.meter import conflict_warning
+    from ..inference.meter_cut import cut_posterior, held_fit
     from ..inference.sampling import sample_posterior
 
     rng = np.random.default_rng(inp.seed)
-    prior_model = model if inp.re is None else model.with_priors({"R0": Normal(inp.re[0], inp.re[1])})
+    meter = inp.re
+    prior_model = model if meter is None else model.with_priors({"R0": meter.prior()}, where="re")
 
     def single(meas, label):
         fit = fit_admittance(meas, model, re=inp.re)
@@ -289,8 +287,11 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             params = fit.model.params
             theta = _laplace(params, params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS, rng)
         else:
-            post = sample_posterior(meas, prior_model, fit=fit, seed=inp.seed, settings=inp.settings,
-                                    progress=False)
+            cut = meter is not None and meter.cut
+            post = sample_posterior(meas, prior_model, fit=held_fit(fit, meter) if cut else fit,
+                                    seed=inp.seed, settings=inp.settings, progress=False)
+            if cut:
+                post = cut_posterior(post, fit, meter, inp.seed)
             if not post.converged:
                 warns.append({"code": "not_converged", "model": model.label, "run": label,
                               "short": f"the {label} posterior did not meet the stopping rule",
@@ -311,6 +312,11 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         deltas = [d for _, d in inp.loaded]
         mfit = fit_multi_mass(runs, deltas, model, re=inp.re)
         jm = mfit.joint
+        re = mfit.re or {}
+        if "conflict_sd" in re:
+            w = conflict_warning(model.label, re["R0_data"], re["R0_data_sd"], meter, re["conflict_sd"])
+            if w is not None:
+                warns.append({**w, "model": model.label, "run": "free air"})
         if mfit.consistency["p_value"] < 1e-3:
             warns.append({"code": "runs_inconsistent", "model": model.label,
                           "short": f"the recordings disagree (F = {mfit.consistency['F']:.3g}): Mms, Bl "
@@ -327,7 +333,8 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             x = _laplace(jm.params, jm.params.to_z(mfit.theta), mfit.cov_z, _LAPLACE_DRAWS, rng)
         else:
             pm = MultiMassModel(prior_model, jm.deltas).model
-            x, info = sample_multi_mass(runs, deltas, pm, fit=mfit, seed=inp.seed, settings=inp.settings)
+            x, info = sample_multi_mass(runs, deltas, pm, fit=mfit, seed=inp.seed, settings=inp.settings,
+                                        meter=meter)
             if not info["converged"]:
                 warns.append({"code": "not_converged", "model": model.label,
                               "short": "the joint posterior did not meet the stopping rule",
@@ -404,7 +411,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
     loaded : ``[(recording, delta_m_kg), ...]``: added-mass recordings (method ``added_mass``).
     box : ``(recording, volume_m3)``: a sealed test box of known net volume (``added_volume``).
     sd : effective cone area Sd [m²] (Vas, η0, SPL; needed by ``added_volume`` for Cms, Mms, Bl).
-    re : ohmmeter reading of the DC resistance: ohms (1 % sd) or ``(ohms, sd)``.
+    re : ohmmeter reading of the DC resistance: ohms (1 % sd), ``(ohms, sd)`` or ``(ohms, sd, mode)``
+        with mode ``"cut"`` (default) or ``"prior"`` (:mod:`bayes_emt.estimation.meter`).
     mms, bl : a known moving mass [kg] or force factor [T m] (free air only; not both).
     air_density, sound_speed : ρ [kg/m³] and c [m/s].
     fast : intervals from the fit's Gaussian approximation instead of the posterior.
@@ -518,7 +526,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
               "exclude_band_hz": [[float(a), float(b)] for a, b in (exclude_band or ())],
               "loaded": [{"data": m.source, "delta_m_kg": d} for m, d in lm],
               "box": None if bx is None else {"data": bx[0].source, "volume_m3": bx[1]},
-              "sd_m2": sd, "re": None if re_t is None else {"ohm": re_t[0], "sd_ohm": re_t[1]},
+              "sd_m2": sd,
+              "re": None if re_t is None else {"ohm": re_t.value, "sd_ohm": re_t.sd, "mode": re_t.mode},
               "mms_kg": mms, "bl_tm": bl, "air_density_kg_m3": inp.rho, "sound_speed_m_s": inp.c,
               "uncertainty": "laplace" if fast else "posterior", "seed": int(seed),
               "model_spread_method": MODEL_SPREAD_METHOD,

@@ -208,11 +208,23 @@ def re_reading(text: str) -> tuple[float, float]:
 
 
 def add_re_option(p: argparse.ArgumentParser) -> None:
-    """``--re OHM[:SD]``: an ohmmeter reading of the DC resistance (a Normal prior on R0 for posteriors,
-    a penalty for least squares)."""
+    """``--re OHM[:SD]`` (an ohmmeter reading of the DC resistance) and ``--re-mode cut|prior``."""
     p.add_argument("--re", type=re_reading, default=None, metavar="OHM[:SD]",
                    help="ohmmeter reading of the coil's DC resistance [ohm], optional standard deviation "
-                        "(default 1 %%): a Normal prior on R0 for posteriors, a penalty for least squares")
+                        "(default 1 %%); see --re-mode")
+    p.add_argument("--re-mode", choices=("cut", "prior"), default="cut",
+                   help="how --re counts: cut (default) R0 follows the reading alone and the other "
+                        "parameters are estimated at it; prior: a Normal prior on R0 combined with the data "
+                        "(diagnose always uses the reading as a prior for its candidates' evidences)")
+
+
+def meter_of(args):
+    """The :class:`~bayes_emt.estimation.meter.Meter` of ``--re`` / ``--re-mode``, or ``None``."""
+    if getattr(args, "re", None) is None:
+        return None
+    from ...estimation.meter import Meter
+
+    return Meter(args.re[0], args.re[1], getattr(args, "re_mode", "cut"))
 
 
 def warning_lines(records, *, model: str | None = None) -> list[str]:

@@ -17,6 +17,7 @@ from ._common import (
     add_re_option,
     detail,
     finite_float,
+    meter_of,
     model_from_args,
     note,
     print_table,
@@ -75,7 +76,7 @@ def run(args) -> int:
               "errors as lower bounds")
     from ...thiele_small import thiele_small
 
-    print("\n" + thiele_small(base, model, loaded=[(loaded, args.delta_m)], re=args.re, fast=True,
+    print("\n" + thiele_small(base, model, loaded=[(loaded, args.delta_m)], re=meter_of(args), fast=True,
                               models_for_spread=[]).summary())
     if args.json:
         write_json(args.json, r.to_json_dict())

@@ -22,6 +22,7 @@ from ._common import (
     add_parser,
     add_re_option,
     detail,
+    meter_of,
     model_from_args,
     note,
     print_table,
@@ -72,15 +73,15 @@ def run(args) -> int:
                             quantity=args.quantity).select(args.omega_min, args.omega_max)
     meas = meas.exclude_bands(args.exclude_band)
     model = model_from_args(args)
-    re_reading = args.re
+    re_reading = meter_of(args)
     if args.priors:
         from ...inference.priors import apply_prior_file
 
         model, _ = apply_prior_file(model, args.priors)
         r0 = model.params["R0"].prior.to_dict()
-        if re_reading is None and r0["dist"] in ("normal", "lognormal"):
-            re_reading = (r0["mu"], r0["sigma"]) if r0["dist"] == "normal" else \
-                (r0["median"], r0["median"] * r0["sigma_log"])
+        if re_reading is None and r0["dist"] in ("normal", "lognormal"):  # a prior: Bayes' rule, no cut
+            re_reading = (r0["mu"], r0["sigma"], "prior") if r0["dist"] == "normal" else \
+                (r0["median"], r0["median"] * r0["sigma_log"], "prior")
     fits = {name: fit_admittance(meas, model, polish=(name == "polished"), re=re_reading)
             for name in ("polished", "paper")}
     fit = fits[args.procedure]
@@ -107,7 +108,12 @@ def run(args) -> int:
         print("note: the procedures disagree on R0 by more than 1 %: the coil model may miss physics; a "
               "negative-resistance shunt's stability depends on R0 (shunt --posterior reports by how much)")
     if re_reading is not None:
-        print(f"ohmmeter reading R0 = {re_reading[0]:.5g} +/- {re_reading[1]:.2g} ohm applied as a penalty")
+        how = ("R0 held at the reading (cut), the others fitted at it" if fit.info["re"]["mode"] == "cut"
+               else "applied as a penalty (prior)")
+        info = fit.info["re"]
+        print(f"ohmmeter reading R0 = {info['value']:.5g} +/- {info['sd']:.2g} ohm: {how}; the data "
+              f"alone put R0 at {info['R0_data']:.5g} +/- {info['R0_data_sd']:.2g} ohm "
+              f"({info['conflict_sd']:.1f} sd apart)")
     if args.ts:
         from ...thiele_small import thiele_small
 

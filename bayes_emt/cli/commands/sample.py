@@ -27,6 +27,7 @@ from ._common import (
     detail,
     finite_float,
     int_at_least,
+    meter_of,
     model_from_args,
     note,
     print_warnings,
@@ -145,14 +146,19 @@ def run(args) -> int:
                                           else f"{args.priors}: {name}: {msg}") from None
             physical = JointModel(model, args.delta_m).physical.with_priors(phys)
         model, noise = apply_priors(model, overrides, noise_params=noise, where=str(args.priors))
-    if args.re is not None:
-        from ...params import Normal
+    meter = meter_of(args)
+    if meter is not None and loaded is not None and meter.cut:
+        from ...estimation.meter import Meter
 
-        model = model.with_priors({"R0": Normal(*args.re)}, where="--re")
+        note(args, "--re with --loaded: the added-mass pair takes the reading as a prior on R0 "
+                   "(--re-mode prior)")
+        meter = Meter(meter.value, meter.sd, "prior")
+    if meter is not None:  # the cut samples with R0 held at the reading (meter.prior()), then moves the draws
+        model = model.with_priors({"R0": meter.prior()}, where="--re")
     # the least-squares fit under these priors: the walkers' start, and the warnings it carries
     fit, warns = None, []
     if loaded is None:
-        fit = fit_admittance(meas, model, re=args.re)
+        fit = fit_admittance(meas, model, re=meter)
         warns = list(fit.warnings)
     else:
         for label, m in (("base run", meas), ("loaded run", loaded)):
@@ -181,7 +187,15 @@ def _sample(args, meas, loaded, model, fit, physical, common):
     from ...inference.sampling import sample_posterior
 
     if loaded is None:
-        post = sample_posterior(meas, model, fit=fit, **common)
+        meter = fit.info.get("re") if fit is not None else None
+        if meter is not None and meter["mode"] == "cut":
+            from ...estimation.meter import Meter
+            from ...inference.meter_cut import sample_with_meter
+
+            m = Meter(meter["value"], meter["sd"], "cut")
+            post = sample_with_meter(meas, model, m, fit=fit, **common)
+        else:
+            post = sample_posterior(meas, model, fit=fit, **common)
         print(f"model {model.label}, {meas.n_points} points, likelihood {post.likelihood.describe()}")
     else:
         from ...added_mass.posterior import sample_added_mass
@@ -210,6 +224,12 @@ def _outputs(args, post, warns, out, ckpt, stem, plots) -> int:
 
     ts_lines = from_posterior(post).summary().splitlines()
     print("\n" + "\n".join(ln for ln in ts_lines if not ln.startswith("warn")))
+    from ...inference.sampling import conflict_message, prior_conflicts
+
+    conflicts = prior_conflicts(post.likelihood.params, post.flat())
+    if conflicts:
+        warns.append({"code": "prior_conflict", "message": conflict_message(conflicts),
+                      "parameters": [c["name"] for c in conflicts]})
     if not post.converged:
         warns.append({"code": "not_converged", "message": post.message})
     print_warnings(warns)

@@ -19,6 +19,7 @@ from ._common import (
     add_output_args,
     add_parser,
     add_re_option,
+    meter_of,
     note,
     positive_float,
     print_warning_lines,
@@ -86,8 +87,9 @@ def run(args) -> int:
     f_range = None
     if args.omega_min is not None or args.omega_max is not None:
         f_range = tuple(None if w is None else w / (2 * math.pi) for w in (args.omega_min, args.omega_max))
+    meter = meter_of(args)
     r = thiele_small(args.data, args.model, loaded=list(zip(args.loaded, args.delta_m, strict=True)),
-                     box=None if args.box is None else (args.box, args.box_volume), sd=args.sd, re=args.re,
+                     box=None if args.box is None else (args.box, args.box_volume), sd=args.sd, re=meter,
                      mms=args.mms, bl=args.bl, air_density=args.air_density, sound_speed=args.sound_speed,
                      fast=args.fast, seed=args.seed, models_for_spread=spread, f_range_hz=f_range,
                      exclude_band=args.exclude_band,
