@@ -177,11 +177,38 @@ def _summary(meas, fit, post=None) -> dict:
             out[key] = float(p[name])
     if "omega0" in p:
         out["f0_hz"] = derived_values(fit.model, fit.theta)["fs"]
+    out.update(_ts_summary(fit, post))
     if post is not None:
         rows = post.summary_rows()
         out.update({"converged": bool(post.converged), "steps": int(post.n_steps),
                     "ess_min": float(min(r["ess"] for r in rows)),
                     "sample_seconds": float(post.wall_time)})
+    return out
+
+
+#: the T/S set in the summary: (name, summary key with its unit)
+TS_KEYS = (("fs", "fs_hz"), ("Re", "Re_ohm"), ("Qms", "Qms"), ("Qes", "Qes"), ("Qts", "Qts"))
+
+
+def _ts_summary(fit, post=None) -> dict:
+    """The free-air T/S set (fs [Hz], Re [Ω], Qms, Qes, Qts) as ``fit``, ``sample`` and ``ts``
+    print it: the posterior's medians and 90 % intervals when there is a posterior
+    (:func:`~bayes_emt.thiele_small.from_posterior`), else the fit's Gaussian approximation
+    (:func:`~bayes_emt.thiele_small.from_fit`). Flat keys for the table, ``ts`` with the intervals
+    and units for the JSON, ``ts_from`` naming the source."""
+    from ..thiele_small import from_fit, from_posterior
+
+    try:
+        ts = from_posterior(post) if post is not None else from_fit(fit)
+    except (ValueError, KeyError, IndexError) as exc:  # a model without a mechanical resonance
+        return {"ts_from": f"none ({exc})"}
+    out = {"ts_from": "posterior" if post is not None else
+           "fit" if ts.inputs.get("uncertainty") == "laplace" else "fit (no covariance)", "ts": {}}
+    for name, key in TS_KEYS:
+        p = ts.parameters.get(name)
+        if p is not None:
+            out[key] = float(p["value"])
+            out["ts"][name] = {"value": float(p["value"]), "ci90": p["ci90"], "unit": p["unit"]}
     return out
 
 

@@ -15,7 +15,7 @@ Before submitting, every input whose result folder is finished (:func:`~bayes_em
 completion marker written atomically last, same input bytes, same settings) is skipped. Every
 output is written atomically and the marker last, so killing the batch at any moment loses at
 most the files in progress; their sampler checkpoints let the re-run continue their chains. The
-summary (CSV + HTML) is rewritten from the folders after each completed file.
+summary (CSV, HTML, JSON) is rewritten from the folders after each completed file.
 """
 
 from __future__ import annotations

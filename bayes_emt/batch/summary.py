@@ -1,4 +1,9 @@
-"""The batch summary table, CSV and HTML, rebuilt from the result folders themselves.
+"""The batch summary table, CSV, HTML and JSON, rebuilt from the result folders themselves.
+
+Per recording: the fit's headline numbers, the free-air Thiele–Small set (fs [Hz], Re [Ω], Qms,
+Qes, Qts: the posterior's medians when ``sample`` ran, else the fit's; ``T/S from`` says which,
+as ``fit``, ``sample`` and ``ts`` print it) and the sampler's health. ``summary.json`` has the same
+rows with each T/S value's 90 % interval and unit (strict JSON).
 
 The table is a function of what is on disk (each folder's completion marker or error record), not
 of one run's memory, so it is right after a kill, after a resume, and when rebuilt on its own.
@@ -10,11 +15,13 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 from pathlib import Path
 
 import jinja2
 
 from .._atomic import atomic_write_text
+from .._json import strict_json
 from .inputs import BatchInput
 from .jobs import read_error, read_marker
 
@@ -31,6 +38,12 @@ COLUMNS = (
     ("zeta", "zeta [1]", "{:.4g}"),
     ("phi_N_per_A_sqrtkg", "phi [N/(A kg^0.5)]", "{:.4g}"),
     ("R0_ohm", "R0 [ohm]", "{:.5g}"),
+    ("fs_hz", "fs [Hz]", "{:.4g}"),
+    ("Re_ohm", "Re [ohm]", "{:.4g}"),
+    ("Qms", "Qms [1]", "{:.4g}"),
+    ("Qes", "Qes [1]", "{:.4g}"),
+    ("Qts", "Qts [1]", "{:.4g}"),
+    ("ts_from", "T/S from", "{}"),
     ("converged", "sampler converged", "{}"),
     ("steps", "sampler steps", "{:d}"),
     ("ess_min", "min ESS", "{:.0f}"),
@@ -92,7 +105,8 @@ def summary_rows(inputs: list[BatchInput], out: Path) -> list[dict]:
 
 
 def write_summary(inputs: list[BatchInput], out: Path, *, jobs: tuple[str, ...], model: str) -> dict:
-    """Write ``summary.csv`` and ``summary.html`` in ``out``; returns the counts by status."""
+    """Write ``summary.csv``, ``summary.html`` and ``summary.json`` in ``out``; returns the counts by
+    status."""
     out = Path(out)
     rows = summary_rows(inputs, out)
     keys = [k for k, _, _ in COLUMNS]
@@ -104,6 +118,11 @@ def write_summary(inputs: list[BatchInput], out: Path, *, jobs: tuple[str, ...],
         w.writerow([r["file"], r["folder"], r["status"], *values, r["warnings"], r["error"]])
     atomic_write_text(out / "summary.csv", buf.getvalue())
     counts = {s: sum(r["status"] == s for r in rows) for s in ("done", "error", "pending")}
+    units = {k: h for k, h, _ in COLUMNS}
+    atomic_write_text(out / "summary.json", json.dumps(strict_json(
+        {"jobs": list(jobs), "model": model, "counts": counts, "columns": units,
+         "rows": [{k: r.get(k) for k in ("file", "folder", "status", *keys, "ts", "warnings", "error")}
+                  for r in rows]}), indent=2, allow_nan=False) + "\n")
     html_rows = [{"file": r["file"], "status": r["status"],
                   "cells": [_cell(r.get(k), fmt) for k, _, fmt in COLUMNS],
                   "note": r["error"] or r["warnings"]} for r in rows]

@@ -3,8 +3,8 @@ several masses in one joint posterior), added volume; the loudspeaker engineer's
 Sits beside :mod:`bayes_emt.discovery`, above the features it uses (added mass, inference,
 estimation)."""
 
-from .compute import from_posterior, thiele_small
+from .compute import from_fit, from_posterior, thiele_small
 from .relations import NAMES, UNITS
 from .result import ThieleSmall, read_thiele_small
 
-__all__ = ["thiele_small", "from_posterior", "ThieleSmall", "read_thiele_small", "NAMES", "UNITS"]
+__all__ = ["thiele_small", "from_fit", "from_posterior", "ThieleSmall", "read_thiele_small", "NAMES", "UNITS"]

@@ -22,11 +22,36 @@ stopping rule of :mod:`bayes_emt.inference.sampling`, with the T/S budget
 approximation in sampling space (its covariance, i.e. the standard errors and correlations),
 pushed through the relations by 4000 draws, and says so in the warnings.
 
-``model_spread``: each quantity's range over the candidate models (``models_for_spread``;
-default the eddy-current coil models II, III and UD with the main model's physics terms) whose
-least-squares fit is adequate, i.e. whose rms relative residual is within a factor
-:data:`ADEQUATE_RMS_FACTOR` of the best candidate's. It is an unweighted range: no evidence is
-computed here (say so in ``inputs["model_spread"]``).
+``model_spread``: each quantity's range of the least-squares point values over the candidate
+models (``models_for_spread``; default the eddy-current coil models II, III and UD with the main
+model's physics terms, plus the main model itself) that pass three tests, in this order:
+
+1. *adequate*: rms relative residual within a factor :data:`ADEQUATE_RMS_FACTOR` of the best
+   candidate's;
+2. *determined*: every parameter has a finite standard error no larger than its value (log
+   parameters: ``sd(log x) ≤ 1``) and none ends within 0.1 % of its prior support's width of an edge
+   (the rules of :mod:`bayes_emt.estimation.adequacy`'s ``not_identifiable`` and
+   ``parameter_at_bound``). A degenerate fit fails here: on the LS10-44 free-air recording the
+   Bessel model III ends at α = 100 s, its prior's upper edge, where it is a pure semi-inductor
+   whose α the data cannot see, and R0 = 2.94 ± 19.9 Ω trades against it;
+3. *probable*: posterior model probability ``P_i = Z_i / Σ Z_j`` (equal prior odds over the
+   candidates left after 1–2) at least :data:`SPREAD_MIN_PROBABILITY`, with ``log Z`` the Laplace
+   approximation at the least-squares fit (:func:`~bayes_emt.evidence.fit_evidence.fit_log_evidence`
+   for one recording; the joint likelihood of all recordings for added mass; the sum of the two
+   recordings' for added volume). With an ohmmeter reading, log Z is that of the data with the
+   reading as a Normal prior on R0 (Bayes' rule) whichever mode the estimates use: the reading
+   informs every candidate alike. A candidate whose Laplace evidence fails is kept (no evidence to
+   weigh it by) and listed under ``no_evidence``.
+
+This is the spread "weighted by evidence": a model the evidence rules out carries no weight, the
+others count whatever their probability (a range, not a mixture). With the main model alone left
+the spread is ``None``; when the main model itself is left out, the spread shows the values of the
+models that are left (one value possibly) and a ``better_model`` warning names the most probable.
+Every candidate's rms, undetermined parameters, log Z, probability and verdict are in
+``inputs["model_spread"]``, and the rule in words in ``inputs["model_spread_method"]``. On real
+recordings with thousands of points the evidence usually leaves one model (differences of
+hundreds of nats when the rms differs by a few per cent), so the spread says that the coil models
+disagree only when the data cannot tell them apart.
 
 An ohmmeter reading ``re=(R, sd)`` [Ω] gives Re: by default (mode ``"cut"``,
 :mod:`bayes_emt.estimation.meter`) R0 follows the reading alone and every other parameter is
@@ -49,9 +74,19 @@ from ..models import Model, parse_model_spec
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
-__all__ = ["thiele_small", "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES", "parse_re"]
+__all__ = ["thiele_small", "from_fit", "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES",
+           "parse_re", "SPREAD_MIN_PROBABILITY", "MODEL_SPREAD_METHOD", "undetermined",
+           "select_spread_models"]
 
 ADEQUATE_RMS_FACTOR = 1.5
+#: smallest posterior model probability (equal prior odds, Laplace evidence) that enters the spread
+SPREAD_MIN_PROBABILITY = 0.01
+MODEL_SPREAD_METHOD = (
+    f"range of the least-squares values over the candidate models whose rms relative residual is within "
+    f"{ADEQUATE_RMS_FACTOR}x the best, whose parameters are all determined (finite standard error below the "
+    "value, none at a prior edge) and whose posterior model probability (Laplace evidence, equal prior "
+    f"odds) is at least {SPREAD_MIN_PROBABILITY:g}; candidates whose evidence could not be computed are kept "
+    "unweighted")
 DEFAULT_SPREAD_BASES = ("II", "III", "UD")
 _LAPLACE_DRAWS = 4000
 
@@ -75,7 +110,7 @@ def parse_re(re, mode: str | None = None):
     return as_meter(re, mode)
 
 
-def _measurement(x, where: str, read_options: dict | None, f_range_hz) -> Measurement:
+def _measurement(x, where: str, read_options: dict | None, f_range_hz, exclude_band=None) -> Measurement:
     if isinstance(x, Measurement):
         meas = x
     elif isinstance(x, str | Path):
@@ -87,7 +122,7 @@ def _measurement(x, where: str, read_options: dict | None, f_range_hz) -> Measur
     if f_range_hz is not None:
         lo, hi = f_range_hz
         meas = meas.select(None if lo is None else 2 * math.pi * lo, None if hi is None else 2 * math.pi * hi)
-    return meas
+    return meas.exclude_bands(exclude_band)
 
 
 def _model(model) -> Model:
@@ -115,6 +150,7 @@ class _Inputs:
     c: float
     seed: int
     settings: object
+    evidence: bool = True  # compute each model's Laplace evidence (only needed for the model spread)
 
 
 def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
@@ -131,9 +167,102 @@ def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
     return ts
 
 
+def undetermined(params, theta, cov_z) -> list[str]:
+    """Parameters of a least-squares estimate the data do not determine: no covariance (all of
+    them), a standard error above the value (log parameters: ``sd(log x) > 1``), or a value within
+    :data:`~bayes_emt.estimation.adequacy.AT_BOUND_FRAC` of its prior support's width of an edge
+    (sampling space). The rules of the fit's ``not_identifiable`` and ``parameter_at_bound``
+    warnings, applied to any ParamSet (a joint added-mass vector too)."""
+    from ..estimation.adequacy import AT_BOUND_FRAC
+
+    theta = np.asarray(theta, float).ravel()
+    if cov_z is None or not np.all(np.isfinite(np.diag(cov_z))):
+        return list(params.names)
+    sd = np.sqrt(np.clip(np.diag(cov_z), 0, None))
+    z = params.to_z(theta)
+    lo, hi = (np.asarray(b, float) for b in params.bounds_z())
+    out = []
+    for spec, x, zi, s, a, b in zip(params, theta, z, sd, lo, hi, strict=True):
+        rel = s if spec.transform == "log" else s / max(abs(x), np.finfo(float).tiny)
+        width = b - a
+        at_edge = math.isfinite(width) and min(zi - a, b - zi) <= AT_BOUND_FRAC * width
+        if rel > 1 or at_edge:
+            out.append(spec.name)
+    return out
+
+
+def select_spread_models(records: list[dict]) -> list[dict]:
+    """The spread rule (module docstring) on ``records`` ``{"model", "rms", "undetermined",
+    "log_z"}`` (``log_z`` nan when not computed): returns them with ``adequate``, ``determined``,
+    ``probability`` (None without evidence) and ``included`` added; ``included`` marks the models
+    whose values make the spread."""
+    out = [dict(r) for r in records]
+    best = min(r["rms"] for r in out)
+    for r in out:
+        r["adequate"] = bool(r["rms"] <= ADEQUATE_RMS_FACTOR * best)
+        r["determined"] = not r["undetermined"]
+        r["probability"] = None
+    pool = [r for r in out if r["adequate"] and r["determined"]]
+    with_z = [r for r in pool if math.isfinite(r["log_z"])]
+    if with_z:
+        lz = np.array([r["log_z"] for r in with_z])
+        w = np.exp(lz - lz.max())
+        for r, p in zip(with_z, w / w.sum(), strict=True):
+            r["probability"] = float(p)
+    for r in out:
+        probable = r["probability"] is None or r["probability"] >= SPREAD_MIN_PROBABILITY
+        r["included"] = bool(any(r is q for q in pool) and probable)
+    return out
+
+
+def _single_evidence(meas, fit, prior_model) -> float:
+    from ..evidence.fit_evidence import fit_log_evidence
+    from ..inference.likelihood import Likelihood
+
+    try:
+        ev = fit_log_evidence(meas, fit, lik=Likelihood(prior_model, meas))
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+        return float("nan")
+    return float(ev.log_z)
+
+
+def _joint_evidence(runs, mfit, prior_model) -> float:
+    """Laplace log Z of the joint added-mass likelihood (each run's noise scales sampled), started
+    at the joint least-squares fit."""
+    import warnings
+
+    from ..added_mass.multi import MultiMassLikelihood, MultiMassModel
+    from ..evidence.laplace import laplace_evidence
+    from ..evidence.warp import Warp
+    from ..inference.start import noise_start
+
+    if mfit.cov_z is None or not np.all(np.isfinite(mfit.cov_z)):
+        return float("nan")
+    lik = MultiMassLikelihood(MultiMassModel(prior_model, mfit.joint.deltas), tuple(runs))
+    p = len(mfit.joint.params)
+    z0, spread = [mfit.joint.params.to_z(mfit.theta)], []
+    for meas, rms in zip(runs, mfit.rms_rel_residual, strict=True):
+        c, s = noise_start(rms, float(np.min(np.abs(meas.Y))))
+        z0.append(np.asarray(c, float))
+        spread += s
+    z0 = np.concatenate(z0)
+    scale = np.zeros((z0.size, z0.size))
+    scale[:p, :p] = mfit.cov_z
+    scale[p:, p:] = np.diag(np.square(spread))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = laplace_evidence(lik.log_posterior_z, lik.params, z0, scale,
+                                   warp=Warp.of(lik.params, mask=np.arange(z0.size) >= p))
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+        return float("nan")
+    return float(res.log_z) if res.ok else float("nan")
+
+
 def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
-    """``(ts arrays, ts at the least-squares point, rms)`` of one model: ``mode`` ``"point"``
-    (least squares only; the arrays are then that point), ``"laplace"`` or ``"posterior"``."""
+    """``(ts arrays, ts at the least-squares point, spread record)`` of one model: ``mode``
+    ``"point"`` (least squares only; the arrays are then that point), ``"laplace"`` or
+    ``"posterior"``. The spread record: ``{"model", "rms", "undetermined", "log_z"}``."""
     from ..added_mass.multi import MultiMassModel, fit_multi_mass, sample_multi_mass
     from ..estimation.fitting import fit_admittance
     from ..estimation.meter import conflict_warning
@@ -169,12 +298,15 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                               "message": f"the {label} posterior did not meet the stopping rule: "
                                          f"{post.message}"})
             theta = post.theta()
-        return fit.model, theta, point, fit.rms_rel_residual
+        rec = {"rms": fit.rms_rel_residual,
+               "undetermined": undetermined(fit.model.params, fit.theta, fit.cov_z),
+               "log_z": _single_evidence(meas, fit, prior_model) if inp.evidence else float("nan")}
+        return fit.model, theta, point, rec
 
     if method == "free_air":
-        bound, theta, point, rms = single(inp.meas, "free air")
+        bound, theta, point, rec = single(inp.meas, "free air")
         return (_complete(free_air(bound, theta), bound, theta, inp),
-                _complete(free_air(bound, point), bound, point, inp), rms)
+                _complete(free_air(bound, point), bound, point, inp), {"model": model.label, **rec})
     if method == "added_mass":
         runs = [inp.meas] + [m for m, _ in inp.loaded]
         deltas = [d for _, d in inp.loaded]
@@ -212,18 +344,23 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         for xx in (x, mfit.theta[None, :]):
             theta = jm.thetas(xx)[0]
             out.append(_complete(free_air(model, theta), model, theta, inp, mms=xx[:, 0]))
-        return out[0], out[1], float(np.sqrt(np.mean(np.square(mfit.rms_rel_residual))))
+        rec = {"model": model.label, "rms": float(np.sqrt(np.mean(np.square(mfit.rms_rel_residual)))),
+               "undetermined": undetermined(jm.params, mfit.theta, mfit.cov_z),
+               "log_z": _joint_evidence(runs, mfit, prior_model) if inp.evidence else float("nan")}
+        return out[0], out[1], rec
     # added volume
-    bound, theta, point, rms_b = single(inp.meas, "free air")
+    bound, theta, point, rec_b = single(inp.meas, "free air")
     box_meas, vb = inp.box
-    bbound, theta_c, point_c, rms_c = single(box_meas, "box")
+    bbound, theta_c, point_c, rec_c = single(box_meas, "box")
     n = min(len(theta), len(theta_c))
     if mode != "point":
         theta = theta[rng.permutation(len(theta))[:n]]
         theta_c = theta_c[rng.permutation(len(theta_c))[:n]]
-    rms = float(np.sqrt((rms_b**2 + rms_c**2) / 2))
+    rec = {"model": model.label, "rms": float(np.sqrt((rec_b["rms"] ** 2 + rec_c["rms"] ** 2) / 2)),
+           "undetermined": sorted(set(rec_b["undetermined"]) | set(rec_c["undetermined"])),
+           "log_z": rec_b["log_z"] + rec_c["log_z"]}
     return (_volume(bound, bbound, theta, theta_c, vb, inp, warns, model),
-            _volume(bound, bbound, point, point_c, vb, inp, [], model), rms)
+            _volume(bound, bbound, point, point_c, vb, inp, [], model), rec)
 
 
 def _volume(bound, bbound, theta, theta_c, vb, inp, warns, model):
@@ -263,6 +400,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                  sd: float | None = None, re=None, mms: float | None = None, bl: float | None = None,
                  air_density: float = 1.18, sound_speed: float = 343.0, fast: bool = False, seed: int = 0,
                  models_for_spread: Sequence | None = None, f_range_hz: tuple | None = None,
+                 exclude_band: Sequence | None = None,
                  read_options: dict | None = None, settings=None) -> ThieleSmall:
     """Thiele–Small parameters with 90 % intervals and model spread (module docstring).
 
@@ -282,6 +420,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
     models_for_spread : candidate model specs for ``model_spread`` (default II, III, UD with the
         main model's physics terms; ``[]``: none).
     f_range_hz : ``(f_min, f_max)`` [Hz] band used from every recording (``None``: all).
+    exclude_band : ``[(f1_hz, f2_hz), ...]``: points left out of every recording
+        (:meth:`~bayes_emt.measurement.Measurement.exclude_bands`: a cone break-up, a surround dip).
     read_options : keyword arguments of :func:`~bayes_emt.io.read_measurement` for file paths.
     settings : :class:`~bayes_emt.inference.sampling.SamplerSettings` (default the T/S budget).
 
@@ -302,7 +442,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"{name} must be a positive number, got {v!r}")
     re_t = parse_re(re)
     main = _model(model)
-    meas = _measurement(data, "data", read_options, f_range_hz)
+    meas = _measurement(data, "data", read_options, f_range_hz, exclude_band)
     lm = []
     for i, item in enumerate(loaded):
         try:
@@ -311,7 +451,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"loaded[{i}] must be (recording, delta_m_kg), got {item!r}") from None
         if not (math.isfinite(float(dm)) and float(dm) != 0):
             raise ValueError(f"loaded[{i}]: the added mass must be a non-zero number of kg, got {dm!r}")
-        lm.append((_measurement(rec, f"loaded[{i}]", read_options, f_range_hz), float(dm)))
+        lm.append((_measurement(rec, f"loaded[{i}]", read_options, f_range_hz, exclude_band), float(dm)))
     bx = None
     if box is not None:
         try:
@@ -320,28 +460,41 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"box must be (recording, volume_m3), got {box!r}") from None
         if not (math.isfinite(float(vb)) and float(vb) > 0):
             raise ValueError(f"box volume must be a positive number of m^3, got {vb!r}")
-        bx = (_measurement(rec, "box", read_options, f_range_hz), float(vb))
+        bx = (_measurement(rec, "box", read_options, f_range_hz, exclude_band), float(vb))
     method = "added_mass" if lm else "added_volume" if bx else "free_air"
     inp = _Inputs(meas, lm, bx, sd, re_t, mms, bl, float(air_density), float(sound_speed), int(seed),
                   settings if settings is not None else _ts_sampler())
+    candidates = _spread_models(main, models_for_spread)
+    inp.evidence = bool(candidates)
     warns: list[dict] = []
     mode = "laplace" if fast else "posterior"
-    draws, point_main, rms_main = _estimate(main, method, inp, mode, warns)
+    draws, point_main, rec_main = _estimate(main, method, inp, mode, warns)
 
-    # model spread: point values of every adequate candidate (and the main model)
-    spread_vals = [(main.label, rms_main, point_main)]
-    for cand in _spread_models(main, models_for_spread):
+    # model spread: point values of the adequate, determined, probable candidates (module docstring)
+    records, points = [rec_main], {rec_main["model"]: point_main}
+    for cand in candidates:
         try:
-            _, pv, rms = _estimate(cand, method, inp, "point", [])
+            _, pv, rec = _estimate(cand, method, inp, "point", [])
         except Exception as exc:  # noqa: BLE001 - a candidate that cannot be fitted is reported, not fatal
             warns.append({"code": "spread_model_failed", "model": cand.label,
                           "short": "could not be fitted for the model spread",
                           "message": f"candidate {cand.label} for the model spread could not be "
                                      f"fitted: {exc}"})
             continue
-        spread_vals.append((cand.label, rms, pv))
-    best = min(r for _, r, _ in spread_vals)
-    adequate = [(lab, pv) for lab, r, pv in spread_vals if r <= ADEQUATE_RMS_FACTOR * best]
+        records.append(rec)
+        points[rec["model"]] = pv
+    records = select_spread_models(records)
+    included = [points[r["model"]] for r in records if r["included"]]
+    main_in = records[0]["included"]  # records[0] is the main model
+    better = [r for r in records[1:] if r["probability"] is not None and r["probability"] >= 0.5]
+    if not main_in and better:
+        b = better[0]
+        warns.append({"code": "better_model", "short": f"{b['model']} is more probable than {main.label} "
+                      f"(P = {b['probability']:.3g}): consider --model {b['model']}",
+                      "message": f"the candidate {b['model']} explains the data better than {main.label}: "
+                                 f"posterior model probability {b['probability']:.3g} (Laplace evidence, "
+                                 f"equal prior odds); {main.label} is outside the model spread, which shows "
+                                 "the values of the probable candidates; consider --model " + b["model"]})
 
     params = {}
     for name in NAMES:
@@ -352,10 +505,11 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
         if v.size == 0:
             continue
         lo, med, hi = np.quantile(v, [0.05, 0.5, 0.95])
-        vals = [float(np.asarray(pv[name]).ravel()[0]) for _, pv in adequate if name in pv]
+        vals = [float(np.asarray(pv[name]).ravel()[0]) for pv in included if name in pv]
         vals = [x for x in vals if math.isfinite(x)]
         params[name] = {"value": float(med), "ci90": [float(lo), float(hi)], "unit": UNITS[name],
-                        "model_spread": [min(vals), max(vals)] if len(vals) > 1 else None}
+                        "model_spread": [min(vals), max(vals)] if len(vals) > 1 or (vals and not main_in)
+                        else None}
     if fast:
         warns.append({"code": "fast_intervals", "short": "intervals from the fit's covariance (--fast), not "
                       "the posterior", "message": "intervals from the least-squares fit's Gaussian "
@@ -369,19 +523,37 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                       "Speakerbench report them); zeta and omega0 stay model parameters; "
                       "Qms_viscous is the viscous part alone"})
     inputs = {"data": meas.source, "f_range_hz": [float(meas.f_hz[0]), float(meas.f_hz[-1])],
+              "exclude_band_hz": [[float(a), float(b)] for a, b in (exclude_band or ())],
               "loaded": [{"data": m.source, "delta_m_kg": d} for m, d in lm],
               "box": None if bx is None else {"data": bx[0].source, "volume_m3": bx[1]},
               "sd_m2": sd,
               "re": None if re_t is None else {"ohm": re_t.value, "sd_ohm": re_t.sd, "mode": re_t.mode},
               "mms_kg": mms, "bl_tm": bl, "air_density_kg_m3": inp.rho, "sound_speed_m_s": inp.c,
               "uncertainty": "laplace" if fast else "posterior", "seed": int(seed),
-              "model_spread": {"candidates": [lab for lab, _, _ in spread_vals],
-                               "adequate": [lab for lab, _ in adequate],
-                               "rule": f"rms relative residual within {ADEQUATE_RMS_FACTOR}x the best "
-                                       "candidate's",
-                               "weighting": "unweighted range (no evidence computed)"}}
+              "model_spread_method": MODEL_SPREAD_METHOD,
+              "model_spread": {
+                  "candidates": [r["model"] for r in records],
+                  "included": [r["model"] for r in records if r["included"]],
+                  "no_evidence": [r["model"] for r in records if r["included"] and r["probability"] is None],
+                  "models": [{"model": r["model"], "rms_rel_residual": r["rms"], "adequate": r["adequate"],
+                              "undetermined": list(r["undetermined"]),
+                              "log_evidence": r["log_z"] if math.isfinite(r["log_z"]) else None,
+                              "probability": r["probability"], "included": r["included"],
+                              "values": _point_values(points[r["model"]])}
+                             for r in records]}}
     return ThieleSmall(model=main.spec, method=method, parameters=params, inputs=inputs,
                        warnings=tuple(_dedupe(warns)))
+
+
+def _point_values(ts: dict) -> dict:
+    """A candidate's T/S values at its least-squares point (SI; finite ones only)."""
+    out = {}
+    for name in NAMES:
+        if name in ts:
+            v = float(np.asarray(ts[name], float).ravel()[0])
+            if math.isfinite(v):
+                out[name] = v
+    return out
 
 
 def _dedupe(warns: list[dict]) -> list[dict]:
@@ -397,6 +569,41 @@ def _dedupe(warns: list[dict]) -> list[dict]:
         rec["models"] = [w["model"]] if w.get("model") else []
         out[key] = rec
     return list(out.values())
+
+
+def from_fit(fit, *, seed: int = 0) -> ThieleSmall:
+    """The free-air T/S set of a least-squares fit (one recording), intervals from the fit's
+    Gaussian approximation as ``thiele_small(..., fast=True)`` gives them (4000 draws of its
+    sampling-space covariance, seeded; ``value`` their median). A fit without covariance gives its
+    point values with ``ci90`` None and says so. No model spread (one model)."""
+    model = fit.model
+    point = free_air(model, fit.theta[None, :])
+    draws, warns = None, []
+    if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)):
+        theta = _laplace(model.params, model.params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS,
+                         np.random.default_rng(seed))
+        draws = free_air(model, theta)
+    else:
+        warns.append({"code": "no_covariance", "message": "the fit has no covariance (singular Jacobian): "
+                      "point values only, no intervals"})
+    params = {}
+    for name in NAMES:
+        if name not in point:
+            continue
+        v0 = float(np.asarray(point[name], float).ravel()[0])
+        if not math.isfinite(v0):
+            continue
+        entry = {"value": v0, "ci90": None, "unit": UNITS[name], "model_spread": None}
+        if draws is not None:
+            v = np.asarray(draws[name], float)
+            v = v[np.isfinite(v)]
+            if v.size:
+                lo, med, hi = np.quantile(v, [0.05, 0.5, 0.95])
+                entry.update(value=float(med), ci90=[float(lo), float(hi)])
+        params[name] = entry
+    return ThieleSmall(model=model.spec, method="free_air", parameters=params,
+                       inputs={"uncertainty": "laplace" if draws is not None else "none", "seed": int(seed)},
+                       warnings=tuple(warns))
 
 
 def from_posterior(post, *, sd: float | None = None, air_density: float = 1.18,

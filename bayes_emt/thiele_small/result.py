@@ -39,7 +39,7 @@ class ThieleSmall:
     ----------
     model : the model spec the values come from.
     method : ``"free_air"``, ``"added_mass"`` or ``"added_volume"``.
-    parameters : ``{name: {"value", "ci90": [lo, hi], "unit", "model_spread": [lo, hi] | None}}``
+    parameters : ``{name: {"value", "ci90": [lo, hi] | None, "unit", "model_spread": [lo, hi] | None}}``
         in SI (names and units: :data:`~bayes_emt.thiele_small.relations.UNITS`); ``value`` is the
         posterior median (``fast``: the median of the fit's Gaussian approximation).
     inputs : what was given (files, masses, box volume, Sd, ohmmeter reading, air) and how the
@@ -73,10 +73,11 @@ class ThieleSmall:
             if p is None:
                 continue
             unit, f = DISPLAY[name]
-            lo, hi = p["ci90"]
+            ci = p.get("ci90")
             sp = p.get("model_spread")
             spread = "-" if sp is None else f"{_fmt(sp[0] * f)} .. {_fmt(sp[1] * f)}"
-            out.append((name, _fmt(p["value"] * f), f"{_fmt(lo * f)} .. {_fmt(hi * f)}", spread, unit))
+            interval = "-" if ci is None else f"{_fmt(ci[0] * f)} .. {_fmt(ci[1] * f)}"
+            out.append((name, _fmt(p["value"] * f), interval, spread, unit))
         return out
 
     def summary(self) -> str:
@@ -87,8 +88,9 @@ class ThieleSmall:
         widths = [max(len(str(r[i])) for r in [head, *rows]) for i in range(5)]
         line = "  ".join(f"{{:<{w}}}" for w in widths)
         how = self.inputs.get("uncertainty", "posterior")
-        text = [f"Thiele-Small parameters ({self.method.replace('_', ' ')}, model {self.model}, "
-                f"intervals from the {how})", line.format(*head), "  ".join("-" * w for w in widths)]
+        how = "no intervals" if how == "none" else f"intervals from the {how}"
+        text = [f"Thiele-Small parameters ({self.method.replace('_', ' ')}, model {self.model}, {how})",
+                line.format(*head), "  ".join("-" * w for w in widths)]
         text += [line.format(*r) for r in rows]
         for g in group_warnings(self.warnings):  # one line each; the full text is in to_json()
             who = f" ({', '.join(g['sources'])})" if g["sources"] else ""

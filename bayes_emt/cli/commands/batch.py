@@ -2,8 +2,9 @@
 
 Each recording gets its own result folder under ``--out`` (``fit.json``; with ``sample`` the
 posterior DataTree ``posterior.nc``, ``posterior.json`` and its checkpoint; a completion marker
-``done.json`` written last), and ``summary.csv`` / ``summary.html`` list every recording with its
-headline numbers or its one-line error. Re-running the same command skips finished recordings
+``done.json`` written last), and ``summary.csv`` / ``summary.html`` / ``summary.json`` list every
+recording with its headline numbers (the fit's, the free-air T/S set fs, Re, Qms, Qes, Qts, the
+sampler's) or its one-line error. Re-running the same command skips finished recordings
 and continues the rest (sampler chains resume from their checkpoints), so a killed batch loses
 at most the files in progress. A broken file is reported and the others complete.
 Exit status 0 when every recording finished, 1 when some failed, 2 on a usage error.
@@ -61,6 +62,8 @@ def _line(o) -> str:
         text += f", rms rel. residual {s['rms_rel_residual']:.3g}"
     if "f0_hz" in s:
         text += f", f0 {s['f0_hz']:.4g} Hz"
+    if "Qts" in s:
+        text += f", fs {s['fs_hz']:.4g} Hz, Re {s['Re_ohm']:.4g} ohm, Qts {s['Qts']:.3g}"
     if "converged" in s:
         text += ", sampler " + ("converged" if s["converged"] else "NOT converged")
     return text + (f" ({o.seconds:.1f} s)" if o.seconds else "")
@@ -93,5 +96,6 @@ def run(args) -> int:
     print(f"{len(result.outcomes)} recordings: {c['done']} done ({skipped} finished earlier, skipped), "
           f"{c['error']} failed, {c['pending']} not finished")
     if not args.quiet:
-        print(f"wrote {result.out / 'summary.csv'} and {result.out / 'summary.html'}")
+        print(f"wrote {result.out / 'summary.csv'}, {result.out / 'summary.html'} and "
+              f"{result.out / 'summary.json'}")
     return 0 if c["error"] == 0 and c["pending"] == 0 else 1

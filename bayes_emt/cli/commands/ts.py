@@ -1,6 +1,6 @@
 """``bayes-emt ts DATA [--model SPEC] [--loaded FILE --delta-m KG]... [--box FILE --box-volume M3]
-[--sd M2] [--re OHM[:SD]] [--mms KG | --bl TM] [--fast] [--json OUT]``: Thiele–Small parameters
-with 90 % intervals and their spread across coil models.
+[--sd M2] [--re OHM[:SD]] [--mms KG | --bl TM] [--exclude-band F1:F2]... [--fast] [--json OUT]``:
+Thiele–Small parameters with 90 % intervals and their spread across coil models.
 
 Free air alone gives fs, Re, Le, Qms, Qes, Qts, EBP (and with a known Mms or Bl the rest);
 added-mass recordings (one or more, each with its mass) are fitted in one joint posterior and
@@ -15,6 +15,7 @@ import math
 from ..paths import check_outputs
 from ._common import (
     add_data_args,
+    add_exclude_band_arg,
     add_output_args,
     add_parser,
     add_re_option,
@@ -30,6 +31,7 @@ bayes-emt ts free_air.zma --model UD
 bayes-emt ts free.txt --loaded with10g.txt --delta-m 0.010 --loaded with20g.txt --delta-m 0.020 --sd 0.0330
 bayes-emt ts free.zma --box in_box.zma --box-volume 0.020 --sd 0.0330 --re 5.72
 bayes-emt ts free.zma --model UD+suspension_creep --mms 0.0149 --sd 0.033 --fast --json ts.json
+bayes-emt ts free.zma --exclude-band 5200:5600 --fast
 """
 
 
@@ -60,6 +62,7 @@ def register(sub) -> None:
                    help="intervals from the least-squares fit's covariance instead of the posterior")
     p.add_argument("--seed", type=seed, default=0, help="sampler seed (default 0)")
     add_data_args(p)
+    add_exclude_band_arg(p)
     p.add_argument("--json", default=None, help="write the result as JSON here")
     add_output_args(p)
     p.set_defaults(func=run)
@@ -89,14 +92,18 @@ def run(args) -> int:
                      box=None if args.box is None else (args.box, args.box_volume), sd=args.sd, re=meter,
                      mms=args.mms, bl=args.bl, air_density=args.air_density, sound_speed=args.sound_speed,
                      fast=args.fast, seed=args.seed, models_for_spread=spread, f_range_hz=f_range,
+                     exclude_band=args.exclude_band,
                      read_options={"freq_unit": args.freq_unit, "phase_unit": args.phase_unit,
                                    "quantity": args.quantity})
     table = r.summary().splitlines()
     print("\n".join(ln for ln in table if not ln.startswith("warning [")))
     print_warning_lines(r.warnings)
     sp = r.inputs["model_spread"]
-    note(args, f"model spread over {', '.join(sp['adequate'])} (adequate of {', '.join(sp['candidates'])}; "
-               f"{sp['weighting']})")
+    probs = ", ".join(f"{m['model']} {'-' if m['probability'] is None else format(m['probability'], '.2g')}"
+                      for m in sp["models"])
+    used = ", ".join(sp["included"]) or "no model"
+    note(args, f"model spread over {used} of {', '.join(sp['candidates'])} "
+               f"(model probabilities: {probs}; {r.inputs['model_spread_method']})")
     if args.json:
         r.save(args.json)
         note(args, f"wrote {args.json}")
