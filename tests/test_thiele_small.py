@@ -109,6 +109,10 @@ def test_free_air_with_known_mass_json_roundtrip(tmp_path):
     assert set(rec["parameters"]["Vas"]) == {"value", "ci90", "unit", "model_spread"}
     back = read_thiele_small(path)
     assert back.parameters == r.parameters and back.method == r.method
+    import bayes_emt as be
+
+    assert json.loads(path.read_text())["kind"] == "thiele_small"
+    assert be.load(path).parameters == r.parameters  # by its kind
     text = r.summary()
     for unit in ("Hz", "Ω", "mH", "g", "mm/N", "L", "dB"):
         assert unit in text

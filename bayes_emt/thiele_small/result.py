@@ -8,9 +8,11 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
 from .._atomic import atomic_write_text
 from .._json import strict_json
+from .._record import register_kind
 from .._warnlines import group_warnings
 from ..errors import DataFormatError
 from .relations import DISPLAY, NAMES, UNITS
@@ -52,6 +54,8 @@ class ThieleSmall:
     parameters: dict
     inputs: dict = field(default_factory=dict)
     warnings: tuple = ()
+
+    kind: ClassVar[str] = "thiele_small"
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -108,9 +112,15 @@ class ThieleSmall:
                 f"<th>unit</th></tr>{cells}</table>" + (f"<ul>{warn}</ul>" if warn else ""))
 
     def to_json_dict(self) -> dict:
-        """``{"model", "method", "parameters", "inputs", "warnings"}`` (SI, strict JSON)."""
-        return strict_json({"model": self.model, "method": self.method, "parameters": self.parameters,
-                            "inputs": self.inputs, "warnings": [dict(w) for w in self.warnings]})
+        """``{"kind": "thiele_small", "model", "method", "parameters", "inputs", "warnings"}`` (SI,
+        strict JSON; ``be.load`` reads it by its kind)."""
+        return strict_json({"kind": self.kind, "model": self.model, "method": self.method,
+                            "parameters": self.parameters, "inputs": self.inputs,
+                            "warnings": [dict(w) for w in self.warnings]})
+
+    @classmethod
+    def from_json_dict(cls, rec: dict) -> ThieleSmall:
+        return read_thiele_small(rec)
 
     def to_json(self) -> str:
         return json.dumps(self.to_json_dict(), indent=2, allow_nan=False)
@@ -140,3 +150,6 @@ def read_thiele_small(source: str | Path | dict) -> ThieleSmall:
     return ThieleSmall(model=str(source["model"]), method=str(source["method"]),
                        parameters=dict(source["parameters"]), inputs=dict(source.get("inputs", {})),
                        warnings=tuple(source.get("warnings", ())))
+
+
+register_kind(ThieleSmall)
