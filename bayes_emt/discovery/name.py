@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -59,6 +60,8 @@ __all__ = [
     "max_log_likelihood",
     "band_chi2",
     "fit_candidate",
+    "fit_jobs",
+    "CpuClock",
     "rank_candidates",
     "MIN_DELTA_LOG_Z",
     "MIN_WHITENING",
@@ -230,11 +233,19 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str,
 
 
 def fit_candidate(
-    meas: Measurement, current: FitResult, physics: str, band: Band
+    meas: Measurement, current: FitResult, physics: str, band: Band, *, warm: bool = True,
+    cache: dict | None = None,
 ) -> list[tuple[FitResult, Evidence]]:
     """``(fit, evidence)`` of ``physics`` added to ``current.model`` (module docstring); for
     the eddy-current escalation one per escalated coil model; for a joint ``"a+b"`` the second
-    term added to the first's fit (``current`` is then that fit). Fits that fail are left out."""
+    term added to the first's fit (``current`` is then that fit). Fits that fail are left out.
+
+    ``warm`` (default): a catalogue term's starts, which :func:`augmentation_starts` builds from
+    ``current``'s fit (the shared parameters at their fitted values), are polished directly
+    (:func:`fit_admittance` ``warm=True``: no paper steps 1-2, which only hand on a start); without
+    it each start runs the full fit. ``cache``: ``{model label: (fit, evidence)}`` of fits from the
+    automatic initial estimate (the escalation's coil models, the base models), read and filled, so
+    a coil model is fitted once per diagnosis whatever the band or round."""
     out = []
     if "+" in physics:
         physics = physics.split("+")[-1]
@@ -242,11 +253,16 @@ def fit_candidate(
         # up the ladder; NL's ring count by evidence: more rings until one more ring loses
         best = -math.inf
         for model in escalations(current.model):
-            try:
-                fit = fit_admittance(meas, model)
-            except (FitError, ValueError):
-                continue
-            ev = fit_log_evidence(meas, fit)
+            hit = None if cache is None else cache.get(model.label)
+            if hit is None:
+                try:
+                    fit = fit_admittance(meas, model)
+                except (FitError, ValueError):
+                    continue
+                hit = (fit, fit_log_evidence(meas, fit))
+                if cache is not None:
+                    cache[model.label] = hit
+            fit, ev = hit
             lz = ev.log_z
             out.append((fit, ev))
             if model.rings is not None:  # the ring ladder
@@ -262,7 +278,7 @@ def fit_candidate(
     fits = []
     for s in starts[:STARTS_POLISHED]:
         try:
-            fits.append(fit_admittance(meas, new, initial=s))
+            fits.append(fit_admittance(meas, new, initial=s, warm=warm))
         except (FitError, ValueError):
             continue
     ok = [f for f in fits if not f.info.get("resonance_mismatch")] or fits
@@ -282,6 +298,73 @@ def fit_candidate(
     return [(best, fit_log_evidence(meas, best))]
 
 
+class CpuClock:
+    """CPU seconds of this process plus those its worker processes reported (:func:`fit_jobs`), for a
+    time budget that means the same with and without a pool."""
+
+    def __init__(self):
+        self.workers = 0.0
+
+    def __call__(self) -> float:
+        return time.process_time() + self.workers
+
+
+def _portable(meas: Measurement) -> tuple:
+    return (np.asarray(meas.omega), np.asarray(meas.Y), meas.weights, dict(meas.meta))
+
+
+def _candidate_task(meas_parts, base, physics, band, warm, known):
+    """One candidate in a worker process: ``(fits, CPU seconds, new cache entries)``."""
+    t = time.process_time()
+    omega, Y, w, meta = meas_parts
+    cache = dict(known)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = fit_candidate(Measurement(omega, Y, w, meta), base, physics, band, warm=warm, cache=cache)
+    return res, time.process_time() - t, {k: v for k, v in cache.items() if k not in known}
+
+
+def fit_jobs(meas: Measurement, jobs, band: Band, *, warm: bool = True, cache: dict | None = None,
+             pool=None, clock=None, deadline: float | None = None):
+    """``(physics, base, fits, seconds)`` of each job ``(physics, base)`` in the order given
+    (:func:`fit_candidate`), lazily: a job is not started once ``clock()`` passes ``deadline``
+    (``(physics, base, None, 0)`` then, and nothing after it). With ``pool`` (a
+    :class:`concurrent.futures.Executor` of processes) the jobs run in parallel, the eddy-current
+    escalation (the slowest) submitted first; the order of the results, and so every decision, is
+    the same as without it; the workers' CPU time is added to ``clock`` (a :class:`CpuClock`)."""
+    clock = clock or time.process_time
+    if pool is None:
+        for physics, base in jobs:
+            if deadline is not None and clock() > deadline:
+                yield physics, base, None, 0.0
+                return
+            t0 = time.perf_counter()
+            yield physics, base, fit_candidate(meas, base, physics, band, warm=warm, cache=cache), \
+                time.perf_counter() - t0
+        return
+    if deadline is not None and clock() > deadline and jobs:
+        yield jobs[0][0], jobs[0][1], None, 0.0
+        return
+    parts = _portable(meas)
+    known = {} if cache is None else dict(cache)
+    order = sorted(range(len(jobs)), key=lambda i: jobs[i][0] != EDDY_PHYSICS)
+    t0 = time.perf_counter()
+    futures = {i: pool.submit(_candidate_task, parts, jobs[i][1], jobs[i][0], band, warm,
+                              known if jobs[i][0] == EDDY_PHYSICS else {}) for i in order}
+    for i, (physics, base) in enumerate(jobs):
+        if deadline is not None and clock() > deadline:
+            for f in futures.values():
+                f.cancel()
+            yield physics, base, None, 0.0
+            return
+        res, cpu, new = futures[i].result()
+        if hasattr(clock, "workers"):
+            clock.workers += cpu
+        if cache is not None:
+            cache.update(new)
+        yield physics, base, res, time.perf_counter() - t0
+
+
 def rank_candidates(
     meas: Measurement,
     current: FitResult,
@@ -292,83 +375,46 @@ def rank_candidates(
     progress=None,
     deadline: float | None = None,
     joint: bool = True,
+    *,
+    warm: bool = True,
+    cache: dict | None = None,
+    pool=None,
+    clock=None,
 ) -> list[Candidate]:
     """Every candidate of ``physics_ids`` for ``band``, best first (accepted first, then by
     ``Δ log Z``). Patches (:func:`.prefer.is_patch`) are accepted only with determined parameters
     and, for a step, a discontinuity of their own (:func:`.prefer.step_evidence`). With ``joint``,
     when no physical term alone is accepted or a patch leads, pairs of the best physical terms are
-    tried together (the second added to the first's fit)."""
+    tried together (the second added to the first's fit).
+
+    ``warm``, ``cache``: :func:`fit_candidate`'s; ``pool``: run the candidates of a batch in parallel
+    (:func:`fit_jobs`; the same ranking as without); ``clock``: the CPU clock ``deadline`` is on
+    (default :func:`time.process_time`; a :class:`CpuClock` counts the pool's workers too)."""
     from .prefer import is_patch, step_evidence
 
     before = band_chi2(meas, current.model, current.theta, band, sigma_rel)
     scan0 = band_scan(meas, current.model, current.theta, band, sigma_rel)
     n_band = 2 * (band.i_hi - band.i_lo + 1)
     out = []
-    jobs = [(p, current) for p in physics_ids]
-    tried_joint = not joint
-    while jobs or not tried_joint:
-        if not jobs:
-            tried_joint = True
-            jobs = _joint_jobs(out, current)
-            if jobs and progress:
-                progress("  trying physical terms jointly: " + ", ".join(p for p, _ in jobs))
-            continue
-        physics, base = jobs.pop(0)
-        if deadline is not None and time.process_time() > deadline:
-            if progress:
-                progress(f"time budget reached: {physics} and later candidates not tried")
-            break
-        t0 = time.perf_counter()
-        for fit, ev in fit_candidate(meas, base, physics, band):
-            lz = ev.log_z
-            if progress:
-                how = "" if not ev.fallback else f" [{ev.method}: {ev.note}]"
-                dt = time.perf_counter() - t0
-                progress(f"  {physics}: {fit.model.label} log Z {lz:.1f}{how} ({dt:.0f} s)")
-            if not math.isfinite(lz):
-                continue
-            after = band_chi2(meas, fit.model, fit.theta, band, sigma_rel)
-            new_names = [n for n in fit.model.names if n not in current.model.names]
-            ident, why, added = _identifiable(fit, new_names, physics, ev)
-            values = fit.model.as_dict(fit.theta)
-            ids = physics.split("+")
-            bad = next(
-                (
-                    w
-                    for t in fit.model.augmentations
-                    if t.id in ids and (w := t.implausible(values)) is not None
-                ),
-                None,
-            )
-            bad = bad or _at_prior_bound(fit, new_names)
-            if physics != EDDY_PHYSICS:  # a coil model's escalation re-fits R0 with the coil
-                bad = bad or _takes_r0(current, fit) or _moves_fs(current, fit, ids)
-            patch = is_patch(physics, fit)
-            problem = None
-            if patch:
-                problem = (None if ident else f"a patch with undetermined parameters ({why})")
-                problem = problem or step_evidence(meas, current, fit, physics)
-            out.append(
-                Candidate(
-                    physics,
-                    fit,
-                    lz,
-                    lz - current_log_z,
-                    before,
-                    after,
-                    ident,
-                    why,
-                    n_band,
-                    scan0,
-                    band_scan(meas, fit.model, fit.theta, band, sigma_rel),
-                    added,
-                    bad,
-                    ev.method,
-                    ev.note,
-                    patch,
-                    problem,
-                )
-            )
+    batches = [[(p, current) for p in physics_ids]]
+    pairs_due = joint
+    while batches:
+        for physics, _base, res, dt in fit_jobs(meas, batches.pop(0), band, warm=warm, cache=cache,
+                                                pool=pool, clock=clock, deadline=deadline):
+            if res is None:
+                if progress:
+                    progress(f"time budget reached: {physics} and later candidates not tried")
+                pairs_due = False
+                break
+            out.extend(_candidates(meas, current, band, sigma_rel, physics, res, dt, current_log_z, before,
+                                   scan0, n_band, progress, is_patch, step_evidence))
+        if pairs_due:
+            pairs_due = False
+            pairs = _joint_jobs(out, current)
+            if pairs:
+                if progress:
+                    progress("  trying physical terms jointly: " + ", ".join(p for p, _ in pairs))
+                batches.append(pairs)
     # the eddy-current escalation: keep only its best rung (the ring count by evidence), and its best
     # physical rung (the first) beside a better patch rung
     eddy = [c for c in out if c.physics == EDDY_PHYSICS]
@@ -376,6 +422,62 @@ def rank_candidates(
     best_phys = max((c for c in eddy if not c.patch), key=lambda c: c.log_z, default=None)
     out = [c for c in out if c.physics != EDDY_PHYSICS or c is best_eddy or c is best_phys]
     out.sort(key=lambda c: (not c.accepted, -c.delta_log_z))
+    return out
+
+
+def _candidates(meas, current, band, sigma_rel, physics, res, dt, current_log_z, before, scan0, n_band,
+                progress, is_patch, step_evidence) -> list[Candidate]:
+    """The :class:`Candidate` of each ``(fit, evidence)`` of ``physics`` (:func:`rank_candidates`)."""
+    out = []
+    for fit, ev in res:
+        lz = ev.log_z
+        if progress:
+            how = "" if not ev.fallback else f" [{ev.method}: {ev.note}]"
+            progress(f"  {physics}: {fit.model.label} log Z {lz:.1f}{how} ({dt:.0f} s)")
+        if not math.isfinite(lz):
+            continue
+        after = band_chi2(meas, fit.model, fit.theta, band, sigma_rel)
+        new_names = [n for n in fit.model.names if n not in current.model.names]
+        ident, why, added = _identifiable(fit, new_names, physics, ev)
+        values = fit.model.as_dict(fit.theta)
+        ids = physics.split("+")
+        bad = next(
+            (
+                w
+                for t in fit.model.augmentations
+                if t.id in ids and (w := t.implausible(values)) is not None
+            ),
+            None,
+        )
+        bad = bad or _at_prior_bound(fit, new_names)
+        if physics != EDDY_PHYSICS:  # a coil model's escalation re-fits R0 with the coil
+            bad = bad or _takes_r0(current, fit) or _moves_fs(current, fit, ids)
+        patch = is_patch(physics, fit)
+        problem = None
+        if patch:
+            problem = (None if ident else f"a patch with undetermined parameters ({why})")
+            problem = problem or step_evidence(meas, current, fit, physics)
+        out.append(
+            Candidate(
+                physics,
+                fit,
+                lz,
+                lz - current_log_z,
+                before,
+                after,
+                ident,
+                why,
+                n_band,
+                scan0,
+                band_scan(meas, fit.model, fit.theta, band, sigma_rel),
+                added,
+                bad,
+                ev.method,
+                ev.note,
+                patch,
+                problem,
+            )
+        )
     return out
 
 

@@ -264,7 +264,7 @@ def _rejection(model: Model, z, cost: float, final, where: str) -> dict:
 def fit_admittance(meas: Measurement, model: Model, *, initial=None,
                    omega_range: tuple[float | None, float | None] | None = None,
                    polish: bool = True, max_nfev: int | None = None,
-                   re: tuple[float, float] | None = None) -> FitResult:
+                   re: tuple[float, float] | None = None, warm: bool = False) -> FitResult:
     """Fit ``model`` to ``meas`` from the automatic initial estimate (SPEC §3.1–3.2).
 
     Parameters
@@ -282,6 +282,12 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         penalty residual ``s (R0 − R_meter)/sd`` (``s`` the fit's residual scale, so the penalty
         weighs as a Gaussian constraint of standard deviation ``sd`` against the data); the
         covariance includes it. ``info["re"]`` records it.
+    warm : ``initial`` is a warm start (a fit of a nested model with the added parameters started
+        by :func:`~bayes_emt.estimation.augment.augmentation_starts`, as the discrepancy search's
+        candidates are): the paper's steps 1-2, which only hand on a starting point, are skipped and
+        the polish runs from the end of step 0. From such a start the fit without ``warm`` ends in
+        the same polish from step 0 unless steps 1-2 reach a better valley. Needs ``initial`` and
+        ``polish``.
 
     Returns
     -------
@@ -301,6 +307,8 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     FitError : no initial estimate, or the fit diverged.
     """
     t0 = time.perf_counter()
+    if warm and (initial is None or not polish):
+        raise ValueError("fit_admittance: warm=True needs an initial (the warm start) and the polish")
     if omega_range is not None:
         meas = meas.select(*omega_range)
     model = model.bind(meas.omega)
@@ -350,15 +358,20 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     cost0, z0, info["start_used"], _ = best
     info["path"] = (f"start {info['start_used']} ({labels[info['start_used']]}) of {len(starts)}, "
                     "steps 0-2")
-    z, _ = run(z0, 1.0 / np.abs(s), all_free, "1: all parameters, W = 1/s", **mid)
-    keep = np.isin(model.names, ("R0", "omega0"))
-    z, sol = run(z, np.ones(meas.n_points), ~keep, "2: R0, omega0 fixed, W = 1", **mid)
-    info["final_start"] = "step 2"
+    if warm:
+        info["path"] = f"warm start ({labels[0]}), step 0"
+        z = z0
+        info["final_start"] = "step 0"
+    else:
+        z, _ = run(z0, 1.0 / np.abs(s), all_free, "1: all parameters, W = 1/s", **mid)
+        keep = np.isin(model.names, ("R0", "omega0"))
+        z, sol = run(z, np.ones(meas.n_points), ~keep, "2: R0, omega0 fixed, W = 1", **mid)
+        info["final_start"] = "step 2"
     if polish:
         # the polish works on the relative residuals themselves (no order-one normalisation)
         t = time.perf_counter()
         sol = final.solve(z, lo, hi, max_nfev)
-        if final.cost(z0) < 2 * sol.cost or not plausible(sol.x):
+        if not warm and (final.cost(z0) < 2 * sol.cost or not plausible(sol.x)):
             # the paper's steps ended in a worse valley than the start-up: polish that too
             alt = final.solve(z0, lo, hi, max_nfev)
             if (plausible(alt.x), -alt.cost) > (plausible(sol.x), -sol.cost):
