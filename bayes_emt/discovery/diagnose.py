@@ -27,7 +27,7 @@ import numpy as np
 from .._record import Record, Table
 from ..errors import FitError
 from ..estimation.checks import locate_resonance
-from ..estimation.fitting import fit_admittance
+from ..estimation.fitting import fit_admittance, fit_reusing
 from ..estimation.results import FitResult
 from ..evidence.fit_evidence import fit_log_evidence
 from ..measurement import Measurement
@@ -35,7 +35,7 @@ from ..models import EDDY_PHYSICS, Model, parse_model_spec
 from ..models.derived import derived_values
 from .candidates import candidate_physics
 from .locate import ALPHA, Band, Location, locate_mismatch
-from .name import Candidate, CpuClock, max_log_likelihood, rank_candidates
+from .name import Candidate, CpuClock, FitCache, max_log_likelihood, rank_candidates
 from .prefer import change_band, check_setup, choose, setup_excludes
 from .shape import describe_shape, residual_shape
 
@@ -306,21 +306,18 @@ class Diagnosis(Record):
 
 
 def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *,
-                         cache: dict | None = None) -> tuple[FitResult, float, dict]:
+                         cache: FitCache | None = None) -> tuple[FitResult, float, dict]:
     """The base model (of ``names``) with the largest Laplace log evidence: its fit, log Z and the
-    log Z of every one tried ``{name: log_z}`` [nats]. ``cache``: ``{model label: (fit, evidence)}``
-    filled with every base model fitted (:func:`.name.fit_candidate` reads it: the eddy-current
-    escalation from a base below UD does not fit III or UD again)."""
+    log Z of every one tried ``{name: log_z}`` [nats]. ``cache``: a :class:`.name.FitCache` filled
+    with every base model's fit and evidence (the eddy-current escalation from a base below UD then
+    does not fit III or UD again)."""
     best, scores = None, {}
     for name in names:
         try:
-            fit = fit_admittance(meas, parse_model_spec(name))
+            fit = fit_reusing(meas, parse_model_spec(name), None if cache is None else cache.fits)
         except (FitError, ValueError):
             continue
-        ev = fit_log_evidence(meas, fit)
-        if cache is not None:
-            cache[fit.model.label] = (fit, ev)
-        lz = ev.log_z
+        lz = (fit_log_evidence(meas, fit) if cache is None else cache.evidence_of(meas, fit)).log_z
         scores[name] = lz
         if math.isfinite(lz) and (best is None or lz > best[1]):
             best = (fit, lz)
@@ -505,7 +502,7 @@ def diagnose(
     clock = CpuClock()
     deadline = None if time_budget is None else clock() + time_budget
     say = progress or (lambda msg: None)
-    cache: dict = {}
+    cache = FitCache()
     pool = _pool(workers)
     try:
         return _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup, t0, clock,

@@ -43,7 +43,7 @@ from scipy import optimize
 
 from ..errors import FitError
 from ..estimation.augment import augmentation_starts
-from ..estimation.fitting import fit_admittance
+from ..estimation.fitting import fit_admittance, fit_reusing
 from ..estimation.results import FitResult
 from ..evidence.fit_evidence import Evidence, fit_log_evidence
 from ..evidence.scale import verbal
@@ -62,6 +62,7 @@ __all__ = [
     "fit_candidate",
     "fit_jobs",
     "CpuClock",
+    "FitCache",
     "rank_candidates",
     "MIN_DELTA_LOG_Z",
     "MIN_WHITENING",
@@ -243,9 +244,10 @@ def fit_candidate(
     ``warm`` (default): a catalogue term's starts, which :func:`augmentation_starts` builds from
     ``current``'s fit (the shared parameters at their fitted values), are polished directly
     (:func:`fit_admittance` ``warm=True``: no paper steps 1-2, which only hand on a start); without
-    it each start runs the full fit. ``cache``: ``{model label: (fit, evidence)}`` of fits from the
-    automatic initial estimate (the escalation's coil models, the base models), read and filled, so
-    a coil model is fitted once per diagnosis whatever the band or round."""
+    it each start runs the full fit. ``cache``: a :class:`FitCache` of ``meas``, read and filled: a
+    coil model of the escalation (and the nested fits its start-up needs: NL's UL surrogate, the
+    model without its last augmentation) is fitted once per diagnosis whatever the band or round;
+    the result does not depend on it (:func:`~bayes_emt.estimation.fitting.fit_reusing`)."""
     out = []
     if "+" in physics:
         physics = physics.split("+")[-1]
@@ -253,16 +255,11 @@ def fit_candidate(
         # up the ladder; NL's ring count by evidence: more rings until one more ring loses
         best = -math.inf
         for model in escalations(current.model):
-            hit = None if cache is None else cache.get(model.label)
-            if hit is None:
-                try:
-                    fit = fit_admittance(meas, model)
-                except (FitError, ValueError):
-                    continue
-                hit = (fit, fit_log_evidence(meas, fit))
-                if cache is not None:
-                    cache[model.label] = hit
-            fit, ev = hit
+            try:
+                fit = fit_reusing(meas, model, None if cache is None else cache.fits)
+            except (FitError, ValueError):
+                continue
+            ev = fit_log_evidence(meas, fit) if cache is None else cache.evidence_of(meas, fit)
             lz = ev.log_z
             out.append((fit, ev))
             if model.rings is not None:  # the ring ladder
@@ -298,6 +295,44 @@ def fit_candidate(
     return [(best, fit_log_evidence(meas, best))]
 
 
+class FitCache:
+    """Fits of one measurement from the automatic start, ``fits`` ``{model label: FitResult}``
+    (:func:`~bayes_emt.estimation.fitting.fit_reusing`), and their evidence, ``evidence``
+    ``{model label: (fit, Evidence)}``."""
+
+    def __init__(self):
+        self.fits: dict = {}
+        self.evidence: dict = {}
+
+    def evidence_of(self, meas: Measurement, fit: FitResult) -> Evidence:
+        """:func:`fit_log_evidence` of ``fit``, computed once per fit."""
+        hit = self.evidence.get(fit.model.label)
+        if hit is not None and hit[0].model.names == fit.model.names and \
+                np.array_equal(hit[0].theta, fit.theta):
+            return hit[1]
+        ev = fit_log_evidence(meas, fit)
+        self.evidence[fit.model.label] = (fit, ev)
+        return ev
+
+    def new_since(self, other: FitCache) -> FitCache:
+        """The entries of this cache ``other`` does not hold."""
+        out = FitCache()
+        out.fits = {k: v for k, v in self.fits.items() if k not in other.fits}
+        out.evidence = {k: v for k, v in self.evidence.items() if k not in other.evidence}
+        return out
+
+    def update(self, other: FitCache) -> None:
+        for k, v in other.fits.items():
+            self.fits.setdefault(k, v)
+        for k, v in other.evidence.items():
+            self.evidence.setdefault(k, v)
+
+    def copy(self) -> FitCache:
+        out = FitCache()
+        out.fits, out.evidence = dict(self.fits), dict(self.evidence)
+        return out
+
+
 class CpuClock:
     """CPU seconds of this process plus those its worker processes reported (:func:`fit_jobs`), for a
     time budget that means the same with and without a pool."""
@@ -317,11 +352,11 @@ def _candidate_task(meas_parts, base, physics, band, warm, known):
     """One candidate in a worker process: ``(fits, CPU seconds, new cache entries)``."""
     t = time.process_time()
     omega, Y, w, meta = meas_parts
-    cache = dict(known)
+    cache = None if known is None else known.copy()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = fit_candidate(Measurement(omega, Y, w, meta), base, physics, band, warm=warm, cache=cache)
-    return res, time.process_time() - t, {k: v for k, v in cache.items() if k not in known}
+    return res, time.process_time() - t, None if cache is None else cache.new_since(known)
 
 
 def fit_jobs(meas: Measurement, jobs, band: Band, *, warm: bool = True, cache: dict | None = None,
@@ -346,11 +381,10 @@ def fit_jobs(meas: Measurement, jobs, band: Band, *, warm: bool = True, cache: d
         yield jobs[0][0], jobs[0][1], None, 0.0
         return
     parts = _portable(meas)
-    known = {} if cache is None else dict(cache)
     order = sorted(range(len(jobs)), key=lambda i: jobs[i][0] != EDDY_PHYSICS)
     t0 = time.perf_counter()
     futures = {i: pool.submit(_candidate_task, parts, jobs[i][1], jobs[i][0], band, warm,
-                              known if jobs[i][0] == EDDY_PHYSICS else {}) for i in order}
+                              cache if jobs[i][0] == EDDY_PHYSICS else None) for i in order}
     for i, (physics, base) in enumerate(jobs):
         if deadline is not None and clock() > deadline:
             for f in futures.values():
@@ -360,7 +394,7 @@ def fit_jobs(meas: Measurement, jobs, band: Band, *, warm: bool = True, cache: d
         res, cpu, new = futures[i].result()
         if hasattr(clock, "workers"):
             clock.workers += cpu
-        if cache is not None:
+        if cache is not None and new is not None:
             cache.update(new)
         yield physics, base, res, time.perf_counter() - t0
 

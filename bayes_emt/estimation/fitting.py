@@ -52,7 +52,7 @@ from .checks import check_fit_inputs
 from .guess import find_initial_estimate
 from .results import FitResult
 
-__all__ = ["fit_admittance", "covariance_z", "relative_residuals", "central_jacobian",
+__all__ = ["fit_admittance", "fit_reusing", "covariance_z", "relative_residuals", "central_jacobian",
            "forward_jacobian", "batched_least_squares"]
 
 _FD_STEP = 1e-6  # central-difference step in sampling space (relative for log parameters)
@@ -167,7 +167,37 @@ def _as_theta(model: Model, initial) -> np.ndarray:
     return theta
 
 
-def _starts(meas: Measurement, model: Model, initial, max_nfev):
+def fit_reusing(meas: Measurement, model: Model, reuse: dict | None,
+                max_nfev: int | None = None) -> FitResult:
+    """``fit_admittance(meas, model, max_nfev=max_nfev)`` (automatic start), taken from ``reuse``
+    ``{model label: FitResult}`` (fits of ``meas`` from the automatic start) when it holds that fit:
+    the same model and priors, and every step of it ended before its evaluation budget under this
+    call's ``max_nfev`` as under its own (the least-squares solver's path does not depend on the
+    budget until it runs out, so the fit is the same). A new fit is added to ``reuse``."""
+    if reuse is not None:
+        hit = reuse.get(model.label)
+        if hit is not None and _same_fit(hit, model, meas, max_nfev):
+            return hit
+    fit = fit_admittance(meas, model, max_nfev=max_nfev, reuse=reuse)
+    if reuse is not None:
+        reuse.setdefault(model.label, fit)
+    return fit
+
+
+def _same_fit(fit: FitResult, model: Model, meas: Measurement, max_nfev: int | None) -> bool:
+    if fit.n_points != meas.n_points or fit.model.names != model.names \
+            or fit.model.params.to_dict() != model.params.to_dict() \
+            or fit.info.get("initial", {}).get("path") == "user":
+        return False
+    k = model.ndim
+    polish = max_nfev or 25 * k
+    mid = min(polish, 30 * k)
+    steps = fit.info.get("steps", [])
+    return bool(steps) and all(
+        st["status"] != 0 and st["nfev"] < (polish if st["step"].startswith("3") else mid) for st in steps)
+
+
+def _starts(meas: Measurement, model: Model, initial, max_nfev, reuse=None):
     """Starting vectors (best first), their provenance, and the record for ``info["initial"]``."""
     if initial is not None:
         return [_as_theta(model, initial)], ["user"], {"path": "user"}
@@ -176,7 +206,7 @@ def _starts(meas: Measurement, model: Model, initial, max_nfev):
         # band where it acts (the term's ``start``); several augmentations are added one by one
         last = model.augmentations[-1]
         prev = model.without(last)
-        prev_fit = fit_admittance(meas, prev, max_nfev=max_nfev)
+        prev_fit = fit_reusing(meas, prev, reuse, max_nfev)
         aug, thetas = augmentation_starts(meas, prev, prev_fit.theta, last)
         starts = [model.vector(aug.as_dict(t)) for t in thetas]
         return (starts, [f"{prev.label} fit + {last.id} start {i}" for i in range(len(starts))],
@@ -191,7 +221,7 @@ def _starts(meas: Measurement, model: Model, initial, max_nfev):
         coarse = model
         for t, (sur, _) in surrogates:
             coarse = coarse.replace_term(t, sur)
-        cfit = fit_admittance(meas, coarse, max_nfev=max_nfev)
+        cfit = fit_reusing(meas, coarse, reuse, max_nfev)
         vals = cfit.parameters
         for _, (sur, convert) in surrogates:
             conv = convert(vals)
@@ -264,7 +294,8 @@ def _rejection(model: Model, z, cost: float, final, where: str) -> dict:
 def fit_admittance(meas: Measurement, model: Model, *, initial=None,
                    omega_range: tuple[float | None, float | None] | None = None,
                    polish: bool = True, max_nfev: int | None = None,
-                   re: tuple[float, float] | None = None, warm: bool = False) -> FitResult:
+                   re: tuple[float, float] | None = None, warm: bool = False,
+                   reuse: dict | None = None) -> FitResult:
     """Fit ``model`` to ``meas`` from the automatic initial estimate (SPEC §3.1–3.2).
 
     Parameters
@@ -288,6 +319,9 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         the polish runs from the end of step 0. From such a start the fit without ``warm`` ends in
         the same polish from step 0 unless steps 1-2 reach a better valley. Needs ``initial`` and
         ``polish``.
+    reuse : ``{model label: FitResult}``: the nested fits the start-up needs (the model without its
+        last augmentation; NL's UL surrogate) are taken from it when it holds the same fit
+        (:func:`fit_reusing`), and added to it otherwise. The result does not depend on it.
 
     Returns
     -------
@@ -315,7 +349,7 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     resonance = check_fit_inputs(meas, model.ndim, label=model.label)
     k = model.ndim
     max_nfev = max_nfev or 25 * k
-    starts, labels, info_initial = _starts(meas, model, initial, max_nfev)
+    starts, labels, info_initial = _starts(meas, model, initial, max_nfev, reuse)
     info: dict = {"initial": info_initial}
     lo, hi = model.params.bounds_z()
     s = 1j * meas.omega
