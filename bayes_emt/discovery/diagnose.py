@@ -45,9 +45,11 @@ __all__ = ["Finding", "Diagnosis", "diagnose", "preferred_base_model", "BASELINE
 BASELINE_CANDIDATES: tuple[str, ...] = ("I", "II", "III", "UD")
 #: bands examined per round (strongest first)
 MAX_BANDS_PER_ROUND = 3
-#: worker processes fitting the candidates of a band in parallel by default (1: none; measured on the
-#: real recordings of ../shared/realdata on a 2-core machine, benchmarks/RESULTS.md)
-DEFAULT_WORKERS = 1
+#: worker processes fitting the candidates of a band in parallel by default (at most one per core;
+#: none inside a daemonic process, which may not have children): on the 2-core machine of
+#: benchmarks/RESULTS.md, shared with other jobs (load 4.8), two workers diagnosed dayton_LS10-44.zma
+#: in 29 s against 44 s in one process, with the same findings
+DEFAULT_WORKERS = 2
 # a final model whose R0 differs from the baseline's by more than this (relative) gets a warning: the
 # paper's models put R0 4-9 % above a woofer's DC resistance when they absorb missing physics, and a
 # negative-resistance shunt cancels most of R0, so a move of this size changes its stability margin
@@ -327,17 +329,19 @@ def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *,
 
 
 def _pool(workers: int | None):
-    """A process pool of ``workers`` (``None``: :data:`DEFAULT_WORKERS`; ``0``: the machine's cores),
-    or ``None`` for one. Forked where the platform can (the workers share the imported package)."""
+    """A process pool of ``workers`` (``None``: :data:`DEFAULT_WORKERS`, at most the machine's cores;
+    ``0``: one per core), or ``None`` for one worker or inside a daemonic process. Forked where the
+    platform can (the workers share the imported package)."""
     import multiprocessing
     import os
     from concurrent.futures import ProcessPoolExecutor
 
-    n = DEFAULT_WORKERS if workers is None else int(workers)
+    cores = os.cpu_count() or 1
+    n = min(DEFAULT_WORKERS, cores) if workers is None else int(workers)
     if n < 0:
         raise ValueError(f"diagnose: workers must be >= 0, got {workers}")
-    n = n or (os.cpu_count() or 1)
-    if n <= 1:
+    n = n or cores
+    if n <= 1 or multiprocessing.current_process().daemon:
         return None
     methods = multiprocessing.get_all_start_methods()
     ctx = multiprocessing.get_context("fork" if "fork" in methods else methods[0])
@@ -482,9 +486,9 @@ def diagnose(
         fitted (the round in progress finishes with what it has; a warning says so); ``None``: no
         limit. CPU time, not wall time: on a shared machine the result does not depend on the load.
         A safety net: the search is meant to finish well inside it.
-    workers : processes fitting a band's candidates in parallel (``None``: :data:`DEFAULT_WORKERS`;
-        ``0``: one per core; ``1``: none). The findings do not depend on it: every candidate is
-        deterministic and the results are merged in the order the candidates are listed.
+    workers : processes fitting a band's candidates in parallel (``None``: :data:`DEFAULT_WORKERS`,
+        at most one per core; ``0``: one per core; ``1``: none). The findings do not depend on it:
+        every candidate is deterministic and the results are merged in the order they are listed.
     warm : start each catalogue term's fit from the current fit and polish it directly
         (:func:`.name.fit_candidate`); ``False``: the full fit from every start (slower; the same
         decisions unless the paper's intermediate steps reach a better valley).
