@@ -331,7 +331,8 @@ def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *,
 def _pool(workers: int | None):
     """A process pool of ``workers`` (``None``: :data:`DEFAULT_WORKERS`, at most the machine's cores;
     ``0``: one per core), or ``None`` for one worker or inside a daemonic process. Forked where the
-    platform can (the workers share the imported package)."""
+    platform can (the workers share the imported package and the terms registered at run time);
+    where it cannot, no pool unless ``workers`` asks for one."""
     import multiprocessing
     import os
     from concurrent.futures import ProcessPoolExecutor
@@ -344,6 +345,8 @@ def _pool(workers: int | None):
     if n <= 1 or multiprocessing.current_process().daemon:
         return None
     methods = multiprocessing.get_all_start_methods()
+    if "fork" not in methods and workers is None:
+        return None  # spawned workers would not hold terms registered at run time
     ctx = multiprocessing.get_context("fork" if "fork" in methods else methods[0])
     return ProcessPoolExecutor(max_workers=n, mp_context=ctx)
 
