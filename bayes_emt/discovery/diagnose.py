@@ -35,7 +35,7 @@ from ..models import EDDY_PHYSICS, Model, parse_model_spec
 from ..models.derived import derived_values
 from .candidates import candidate_physics
 from .locate import ALPHA, Band, Location, locate_mismatch
-from .name import Candidate, CpuClock, FitCache, max_log_likelihood, rank_candidates
+from .name import Candidate, CpuClock, FitCache, base_task, max_log_likelihood, portable, rank_candidates
 from .prefer import change_band, check_setup, choose, setup_excludes
 from .shape import describe_shape, residual_shape
 
@@ -307,19 +307,31 @@ class Diagnosis(Record):
         }
 
 
-def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *,
-                         cache: FitCache | None = None) -> tuple[FitResult, float, dict]:
+def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *, cache: FitCache | None = None,
+                         pool=None, clock=None) -> tuple[FitResult, float, dict]:
     """The base model (of ``names``) with the largest Laplace log evidence: its fit, log Z and the
     log Z of every one tried ``{name: log_z}`` [nats]. ``cache``: a :class:`.name.FitCache` filled
     with every base model's fit and evidence (the eddy-current escalation from a base below UD then
-    does not fit III or UD again)."""
+    does not fit III or UD again); ``pool``: the models fitted in parallel (the same result), the
+    workers' CPU time added to ``clock`` (a :class:`.name.CpuClock`)."""
+    cache = FitCache() if cache is None else cache
     best, scores = None, {}
+    if pool is not None:
+        parts = portable(meas)
+        futures = [pool.submit(base_task, parts, name) for name in names]
+        for fut in futures:
+            fit, ev, cpu = fut.result()
+            if hasattr(clock, "workers"):
+                clock.workers += cpu
+            if fit is not None:
+                cache.fits.setdefault(fit.model.label, fit)
+                cache.evidence.setdefault(fit.model.label, (fit, ev))
     for name in names:
         try:
-            fit = fit_reusing(meas, parse_model_spec(name), None if cache is None else cache.fits)
+            fit = fit_reusing(meas, parse_model_spec(name), cache.fits)
         except (FitError, ValueError):
             continue
-        lz = (fit_log_evidence(meas, fit) if cache is None else cache.evidence_of(meas, fit)).log_z
+        lz = cache.evidence_of(meas, fit).log_z
         scores[name] = lz
         if math.isfinite(lz) and (best is None or lz > best[1]):
             best = (fit, lz)
@@ -532,7 +544,7 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
         model = fit.model
     if model is None:
         say("choosing the base model by evidence")
-        fit, lz, scores = preferred_base_model(meas, cache=cache)
+        fit, lz, scores = preferred_base_model(meas, cache=cache, pool=pool, clock=clock)
         say(
             "base model "
             + fit.model.label

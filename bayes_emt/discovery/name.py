@@ -49,7 +49,7 @@ from ..evidence.fit_evidence import Evidence, fit_log_evidence
 from ..evidence.scale import verbal
 from ..inference.likelihood import Likelihood
 from ..measurement import Measurement
-from ..models import EDDY_PHYSICS, Model, make_term
+from ..models import EDDY_PHYSICS, Model, make_term, parse_model_spec
 from ..models.residual import relative_residual, rms_relative_residual
 from .candidates import escalations
 from .locate import Band, scan_statistics
@@ -344,8 +344,25 @@ class CpuClock:
         return time.process_time() + self.workers
 
 
-def _portable(meas: Measurement) -> tuple:
+def portable(meas: Measurement) -> tuple:
+    """``meas`` as arrays and a dict, for a worker process (its metadata mapping does not pickle)."""
     return (np.asarray(meas.omega), np.asarray(meas.Y), meas.weights, dict(meas.meta))
+
+
+def base_task(meas_parts, name: str):
+    """One base model fitted from the automatic start in a worker process: ``(fit, evidence, CPU
+    seconds)``, ``(None, None, s)`` when it cannot be fitted."""
+    t = time.process_time()
+    omega, Y, w, meta = meas_parts
+    meas = Measurement(omega, Y, w, meta)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            fit = fit_admittance(meas, parse_model_spec(name))
+        except (FitError, ValueError):
+            return None, None, time.process_time() - t
+        ev = fit_log_evidence(meas, fit)
+    return fit, ev, time.process_time() - t
 
 
 def _candidate_task(meas_parts, base, physics, band, warm, known):
@@ -380,7 +397,7 @@ def fit_jobs(meas: Measurement, jobs, band: Band, *, warm: bool = True, cache: d
     if deadline is not None and clock() > deadline and jobs:
         yield jobs[0][0], jobs[0][1], None, 0.0
         return
-    parts = _portable(meas)
+    parts = portable(meas)
     order = sorted(range(len(jobs)), key=lambda i: jobs[i][0] != EDDY_PHYSICS)
     t0 = time.perf_counter()
     futures = {i: pool.submit(_candidate_task, parts, jobs[i][1], jobs[i][0], band, warm,

@@ -191,6 +191,8 @@ def _same_fit(fit: FitResult, model: Model, meas: Measurement, max_nfev: int | N
         return False
     k = model.ndim
     polish = max_nfev or 25 * k
+    if fit.info.get("max_nfev") == polish:
+        return True  # the same call
     mid = min(polish, 30 * k)
     steps = fit.info.get("steps", [])
     return bool(steps) and all(
@@ -333,7 +335,8 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         steps, where the polish began), ``final_start`` (``"step 2"`` or ``"step 0"``), ``steps``
         (label, nfev, cost, status, seconds each), ``seconds``, ``at_prior_bound`` (if any),
         ``rejected`` (candidates with a lower cost but ``ω0`` away from the resonance the data
-        shows, see :func:`_resonance_rule`) and ``resonance_mismatch`` (the estimate itself is).
+        shows, see :func:`_resonance_rule`), ``resonance_mismatch`` (the estimate itself is) and
+        ``max_nfev`` (the polish's evaluation budget).
 
     Raises
     ------
@@ -350,7 +353,7 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     k = model.ndim
     max_nfev = max_nfev or 25 * k
     starts, labels, info_initial = _starts(meas, model, initial, max_nfev, reuse)
-    info: dict = {"initial": info_initial}
+    info: dict = {"initial": info_initial, "max_nfev": max_nfev}
     lo, hi = model.params.bounds_z()
     s = 1j * meas.omega
     all_free = np.ones(k, bool)
