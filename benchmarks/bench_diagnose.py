@@ -60,7 +60,7 @@ def one(name: str, workers: int | None = None) -> dict:
             ud.append(time.perf_counter() - t)
             ud_cpu.append(time.process_time() - c)
         t, c, ch = time.perf_counter(), time.process_time(), _children_cpu()
-        d = diagnose(meas, None, seed=0, workers=workers)
+        d = diagnose(meas, None, seed=0, **({} if workers is None else {"workers": workers}))
         wall, cpu = time.perf_counter() - t, time.process_time() - c + _children_cpu() - ch
     return {
         "n_points": meas.n_points,

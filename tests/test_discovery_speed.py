@@ -85,3 +85,20 @@ def test_the_pool_and_the_fast_paths_give_the_full_searchs_findings():
         [c["physics"] for t in warm.tried for c in t["candidates"]]
     assert [c["delta_log_evidence"] for t in pooled.tried for c in t["candidates"]] == \
         [c["delta_log_evidence"] for t in warm.tried for c in t["candidates"]]
+
+
+def test_base_models_fitted_in_a_pool_are_the_same_fits():
+    from bayes_emt.discovery.diagnose import _pool, preferred_base_model
+    from bayes_emt.discovery.name import CpuClock, FitCache
+
+    meas = simulate(parse_model_spec("III"), PAPER_TABLES["III"], GRID, noise=0.003, seed=2)
+    alone = preferred_base_model(meas)
+    pool, clock, cache = _pool(2), CpuClock(), FitCache()
+    try:
+        pooled = preferred_base_model(meas, cache=cache, pool=pool, clock=clock)
+    finally:
+        pool.shutdown()
+    assert pooled[0].model.label == alone[0].model.label
+    np.testing.assert_array_equal(pooled[0].theta, alone[0].theta)
+    assert pooled[1] == alone[1] and pooled[2] == alone[2]
+    assert set(cache.fits) >= {"I", "II", "III", "UD"} and clock.workers > 0
