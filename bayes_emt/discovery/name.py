@@ -65,6 +65,7 @@ __all__ = [
     "FitCache",
     "rank_candidates",
     "MIN_DELTA_LOG_Z",
+    "REFINE_TOP",
     "MIN_WHITENING",
     "MAX_REL_SE",
 ]
@@ -428,9 +429,10 @@ def rank_candidates(
     joint: bool = True,
     *,
     warm: bool = True,
-    cache: dict | None = None,
+    cache: FitCache | None = None,
     pool=None,
     clock=None,
+    refine: int | None = None,
 ) -> list[Candidate]:
     """Every candidate of ``physics_ids`` for ``band``, best first (accepted first, then by
     ``Δ log Z``). Patches (:func:`.prefer.is_patch`) are accepted only with determined parameters
@@ -438,9 +440,14 @@ def rank_candidates(
     when no physical term alone is accepted or a patch leads, pairs of the best physical terms are
     tried together (the second added to the first's fit).
 
-    ``warm``, ``cache``: :func:`fit_candidate`'s; ``pool``: run the candidates of a batch in parallel
-    (:func:`fit_jobs`; the same ranking as without); ``clock``: the CPU clock ``deadline`` is on
-    (default :func:`time.process_time`; a :class:`CpuClock` counts the pool's workers too)."""
+    ``warm``, ``cache``: :func:`fit_candidate`'s; with ``warm`` the ``refine`` (default
+    :data:`REFINE_TOP`) single terms leading by ``Δ log Z`` (a step term aside: its fits are ranked
+    by frequency) are fitted again the full way (:func:`fit_candidate` ``warm=False``), and the full
+    fit replaces the warm one when its χ² is lower: the warm start screens, the leaders get the full
+    search. ``pool``: run the candidates of a batch in parallel (:func:`fit_jobs`; the same ranking as
+    without); ``clock``: the CPU clock ``deadline`` is on (default :func:`time.process_time`; a
+    :class:`CpuClock` counts the pool's workers too)."""
+    refine = REFINE_TOP if refine is None else refine
     from .prefer import is_patch, step_evidence
 
     before = band_chi2(meas, current.model, current.theta, band, sigma_rel)
@@ -448,17 +455,20 @@ def rank_candidates(
     n_band = 2 * (band.i_hi - band.i_lo + 1)
     out = []
     batches = [[(p, current) for p in physics_ids]]
-    pairs_due = joint
+    pairs_due, first, stopped = joint, True, False
+    ctx = (current_log_z, before, scan0, n_band, progress, is_patch, step_evidence)
     while batches:
         for physics, _base, res, dt in fit_jobs(meas, batches.pop(0), band, warm=warm, cache=cache,
                                                 pool=pool, clock=clock, deadline=deadline):
             if res is None:
                 if progress:
                     progress(f"time budget reached: {physics} and later candidates not tried")
-                pairs_due = False
+                pairs_due, stopped = False, True
                 break
-            out.extend(_candidates(meas, current, band, sigma_rel, physics, res, dt, current_log_z, before,
-                                   scan0, n_band, progress, is_patch, step_evidence))
+            out.extend(_candidates(meas, current, band, sigma_rel, physics, res, dt, *ctx))
+        if first and warm and refine and not stopped:
+            _refine(meas, current, band, sigma_rel, out, refine, ctx, pool, clock, deadline)
+        first = False
         if pairs_due:
             pairs_due = False
             pairs = _joint_jobs(out, current)
@@ -474,6 +484,38 @@ def rank_candidates(
     out = [c for c in out if c.physics != EDDY_PHYSICS or c is best_eddy or c is best_phys]
     out.sort(key=lambda c: (not c.accepted, -c.delta_log_z))
     return out
+
+
+#: warm-started single terms, the best by Δ log Z, fitted again the full way (:func:`rank_candidates`)
+REFINE_TOP = 2
+
+
+def _refine(meas, current, band, sigma_rel, out, n, ctx, pool, clock, deadline) -> None:
+    """Fit the ``n`` leading warm-started single terms of ``out`` the full way; a full fit of lower χ²
+    replaces its warm candidate in ``out`` (:func:`rank_candidates`)."""
+    best: dict = {}
+    for c in out:
+        if c.physics == EDDY_PHYSICS or "+" in c.physics or not math.isfinite(c.delta_log_z) \
+                or make_term(c.physics).step_at:
+            continue
+        if c.physics not in best or c.delta_log_z > best[c.physics].delta_log_z:
+            best[c.physics] = c
+    top = sorted(best.values(), key=lambda c: -c.delta_log_z)[:n]
+    progress = ctx[4]
+    if top and progress:
+        progress("  the leaders fitted the full way: " + ", ".join(c.physics for c in top))
+    for physics, _base, res, dt in fit_jobs(meas, [(c.physics, current) for c in top], band, warm=False,
+                                            pool=pool, clock=clock, deadline=deadline):
+        if res is None:
+            break
+        new = _candidates(meas, current, band, sigma_rel, physics, res, dt, *ctx)
+        old = best[physics]
+        if new and new[0].fit.chi2 < old.fit.chi2 * (1 - 1e-9):
+            if progress:
+                progress(f"  {physics}: the full fit is better (chi2 {old.fit.chi2:.6g} -> "
+                         f"{new[0].fit.chi2:.6g}, log Z {old.log_z:.1f} -> {new[0].log_z:.1f}): it replaces "
+                         "the warm one")
+            out[next(i for i, c in enumerate(out) if c is old)] = new[0]
 
 
 def _candidates(meas, current, band, sigma_rel, physics, res, dt, current_log_z, before, scan0, n_band,
