@@ -11,6 +11,9 @@ relative residual before and after and how R0, Qms (= 1/(2ζ)), fs and φ̄ move
 recording (``NAME.json``, reused on a re-run: resume) and in ``table.md``. For the LS10-44
 added-mass pair (0.100 kg added) the joint added-mass fit is run with the starting and the final
 model of the free-air run, giving how the physical mass m [kg] and force factor Bl [N/A] moved.
+The table gives the wall time of the diagnosis and its ratio to one UD fit of the same file timed
+just before it in the same process, and whether the time budget (``--time-budget`` CPU s of the
+process and its workers) was hit.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
 import warnings
@@ -43,7 +47,8 @@ SETUP = {
 }
 
 
-def run_one(name: str, out: Path, setup: str = "unknown", time_budget: float | None = 240.0) -> dict:
+def run_one(name: str, out: Path, setup: str = "unknown", time_budget: float | None = 240.0,
+            workers: int | None = None) -> dict:
     path = out / f"{name}.json"
     if path.exists():
         return json.loads(path.read_text())
@@ -55,10 +60,12 @@ def run_one(name: str, out: Path, setup: str = "unknown", time_budget: float | N
         fit_admittance(meas, parse_model_spec("UD"))
         t_ud = time.perf_counter() - t
         t = time.perf_counter()
-        d = diagnose(meas, None, setup=setup, time_budget=time_budget,
+        d = diagnose(meas, None, setup=setup, time_budget=time_budget, workers=workers,
                      progress=lambda m: print("   ", m, flush=True))
     rec = {"file": name, "n_points": meas.n_points, "seconds": time.perf_counter() - t, "setup": setup,
-           "seconds_one_ud_fit": t_ud, **d.details()}
+           "seconds_one_ud_fit": t_ud, "time_budget_cpu_s": time_budget, "workers": workers,
+           "budget_hit": any("time budget" in w for w in d.warnings),
+           "load_average_1min": os.getloadavg()[0], **d.details()}
     moved = {}
     for k in ("R0", "Qms", "fs_hz", "phi"):
         a, b = d.baseline_fit.parameters, d.final_fit.parameters
@@ -107,6 +114,8 @@ def main(argv=None) -> int:
                     help="unknown (default): every recording diagnosed with setup unknown; known: with "
                          "its mounting from ../shared/realdata/README.md (free air, sealed)")
     ap.add_argument("--time-budget", type=float, default=240.0, help="CPU s per diagnosis (0: none)")
+    ap.add_argument("--workers", type=int, default=None,
+                    help="diagnose's worker processes (default: the library's, 2 on a 2-core machine)")
     ap.add_argument("--report-only", action="store_true",
                     help="tabulate the recordings already diagnosed in --out (and the added-mass pair)")
     a = ap.parse_args(argv)
@@ -120,12 +129,12 @@ def main(argv=None) -> int:
         if (a.only and name not in a.only) or (a.report_only and not (out / f"{name}.json").exists()):
             continue
         print(name, flush=True)
-        recs[name] = run_one(name, out, a.setup, a.time_budget or None)
+        recs[name] = run_one(name, out, a.setup, a.time_budget or None, a.workers)
     pair = added_mass(recs, out) if not a.only else None
     lines = [
         "| recording | start | final | findings | unexplained bands (Hz) | rms before | rms after | "
-        "R0 | Qms | fs | seconds | x one UD fit |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "R0 | Qms | fs | seconds | x one UD fit | budget hit |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, r in recs.items():
         fnd = (
@@ -152,7 +161,7 @@ def main(argv=None) -> int:
             )
             + f" | {r['seconds']:.0f} | "
             + (f"{r['seconds'] / r['seconds_one_ud_fit']:.0f}" if r.get("seconds_one_ud_fit") else "-")
-            + " |"
+            + " | " + {True: "yes", False: "no"}.get(r.get("budget_hit"), "-") + " |"
         )
     if pair:
         lines += [

@@ -27,7 +27,7 @@ import numpy as np
 from .._record import Record, Table
 from ..errors import FitError
 from ..estimation.checks import locate_resonance
-from ..estimation.fitting import fit_admittance
+from ..estimation.fitting import fit_admittance, fit_reusing
 from ..estimation.results import FitResult
 from ..evidence.fit_evidence import fit_log_evidence
 from ..measurement import Measurement
@@ -35,7 +35,7 @@ from ..models import EDDY_PHYSICS, Model, parse_model_spec
 from ..models.derived import derived_values
 from .candidates import candidate_physics
 from .locate import ALPHA, Band, Location, locate_mismatch
-from .name import Candidate, log_evidence, max_log_likelihood, rank_candidates
+from .name import Candidate, CpuClock, FitCache, base_task, max_log_likelihood, portable, rank_candidates
 from .prefer import change_band, check_setup, choose, setup_excludes
 from .shape import describe_shape, residual_shape
 
@@ -45,6 +45,11 @@ __all__ = ["Finding", "Diagnosis", "diagnose", "preferred_base_model", "BASELINE
 BASELINE_CANDIDATES: tuple[str, ...] = ("I", "II", "III", "UD")
 #: bands examined per round (strongest first)
 MAX_BANDS_PER_ROUND = 3
+#: worker processes fitting the candidates of a band in parallel by default (at most one per core;
+#: none inside a daemonic process, which may not have children): on the 2-core machine of
+#: benchmarks/RESULTS.md, shared with other jobs (load 4.8), two workers diagnosed dayton_LS10-44.zma
+#: in 29 s against 44 s in one process, with the same findings
+DEFAULT_WORKERS = 2
 # a final model whose R0 differs from the baseline's by more than this (relative) gets a warning: the
 # paper's models put R0 4-9 % above a woofer's DC resistance when they absorb missing physics, and a
 # negative-resistance shunt cancels most of R0, so a move of this size changes its stability margin
@@ -302,22 +307,60 @@ class Diagnosis(Record):
         }
 
 
-def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES) -> tuple[FitResult, float, dict]:
+def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *, cache: FitCache | None = None,
+                         pool=None, clock=None) -> tuple[FitResult, float, dict]:
     """The base model (of ``names``) with the largest Laplace log evidence: its fit, log Z and the
-    log Z of every one tried ``{name: log_z}`` [nats]."""
+    log Z of every one tried ``{name: log_z}`` [nats]. ``cache``: a :class:`.name.FitCache` filled
+    with every base model's fit and evidence (the eddy-current escalation from a base below UD then
+    does not fit III or UD again); ``pool``: the models fitted in parallel (the same result), the
+    workers' CPU time added to ``clock`` (a :class:`.name.CpuClock`)."""
+    cache = FitCache() if cache is None else cache
     best, scores = None, {}
+    if pool is not None:
+        parts = portable(meas)
+        futures = [pool.submit(base_task, parts, name) for name in names]
+        for fut in futures:
+            fit, ev, cpu = fut.result()
+            if hasattr(clock, "workers"):
+                clock.workers += cpu
+            if fit is not None:
+                cache.fits.setdefault(fit.model.label, fit)
+                cache.evidence.setdefault(fit.model.label, (fit, ev))
     for name in names:
         try:
-            fit = fit_admittance(meas, parse_model_spec(name))
+            fit = fit_reusing(meas, parse_model_spec(name), cache.fits)
         except (FitError, ValueError):
             continue
-        lz = log_evidence(meas, fit)
+        lz = cache.evidence_of(meas, fit).log_z
         scores[name] = lz
         if math.isfinite(lz) and (best is None or lz > best[1]):
             best = (fit, lz)
     if best is None:
         raise FitError(f"{meas.source}: none of the base models {', '.join(names)} could be fitted")
     return best[0], best[1], scores
+
+
+def _pool(workers: int | None):
+    """A process pool of ``workers`` (``None``: :data:`DEFAULT_WORKERS`, at most the machine's cores;
+    ``0``: one per core), or ``None`` for one worker or inside a daemonic process. Forked where the
+    platform can (the workers share the imported package and the terms registered at run time);
+    where it cannot, no pool unless ``workers`` asks for one."""
+    import multiprocessing
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    cores = os.cpu_count() or 1
+    n = min(DEFAULT_WORKERS, cores) if workers is None else int(workers)
+    if n < 0:
+        raise ValueError(f"diagnose: workers must be >= 0, got {workers}")
+    n = n or cores
+    if n <= 1 or multiprocessing.current_process().daemon:
+        return None
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" not in methods and workers is None:
+        return None  # spawned workers would not hold terms registered at run time
+    ctx = multiprocessing.get_context("fork" if "fork" in methods else methods[0])
+    return ProcessPoolExecutor(max_workers=n, mp_context=ctx)
 
 
 def _mechanics(fit: FitResult, with_se: bool = False) -> dict:
@@ -438,6 +481,8 @@ def diagnose(
     time_budget: float | None = 240.0,
     setup: str = "unknown",
     exclude_band=None,
+    workers: int | None = None,
+    warm: bool = True,
 ) -> Diagnosis:
     """Locate, name and model what ``model`` leaves out of ``meas`` (module docstring).
 
@@ -450,10 +495,18 @@ def diagnose(
     max_rounds : at most this many accepted findings.
     alpha : the scan's family-wise false-alarm probability per round.
     seed : seeds the scan's calibration replicates.
-    progress : optional ``callable(str)`` told what is being done.
-    time_budget : CPU seconds of this process after which no further candidate is fitted (the
-        round in progress finishes with what it has; a warning says so); ``None``: no limit. CPU
-        time, not wall time: on a shared machine the result does not depend on the load.
+    progress : optional ``callable(str)`` told what is being done (one line per candidate fitted,
+        with its log Z and wall seconds); quiet by default.
+    time_budget : CPU seconds of this process and its workers after which no further candidate is
+        fitted (the round in progress finishes with what it has; a warning says so); ``None``: no
+        limit. CPU time, not wall time: on a shared machine the result does not depend on the load.
+        A safety net: the search is meant to finish well inside it.
+    workers : processes fitting a band's candidates in parallel (``None``: :data:`DEFAULT_WORKERS`,
+        at most one per core; ``0``: one per core; ``1``: none). The findings do not depend on it:
+        every candidate is deterministic and the results are merged in the order they are listed.
+    warm : start each catalogue term's fit from the current fit and polish it directly
+        (:func:`.name.fit_candidate`); ``False``: the full fit from every start (slower; the same
+        decisions unless the paper's intermediate steps reach a better valley).
     setup : ``"free-air"``, ``"sealed"``, ``"vented"``, ``"shaker"`` or ``"unknown"`` (default): terms
         impossible in the setup are not tried (a port needs a vented box); with ``"unknown"`` a term
         may need its data signature first — a port needs two |Z| maxima with a minimum between them
@@ -465,8 +518,21 @@ def diagnose(
     check_setup(setup)
     meas = meas.exclude_bands(exclude_band)
     t0 = time.perf_counter()
-    deadline = None if time_budget is None else time.process_time() + time_budget
+    clock = CpuClock()
+    deadline = None if time_budget is None else clock() + time_budget
     say = progress or (lambda msg: None)
+    cache = FitCache()
+    pool = _pool(workers)
+    try:
+        return _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup, t0, clock,
+                         deadline, cache, pool, warm)
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+
+
+def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup, t0, clock, deadline,
+              cache, pool, warm) -> Diagnosis:
     warn: list[str] = []
     if fit is not None:
         if model is not None and model.label != fit.model.label:
@@ -478,7 +544,7 @@ def diagnose(
         model = fit.model
     if model is None:
         say("choosing the base model by evidence")
-        fit, lz, scores = preferred_base_model(meas)
+        fit, lz, scores = preferred_base_model(meas, cache=cache, pool=pool, clock=clock)
         say(
             "base model "
             + fit.model.label
@@ -520,7 +586,7 @@ def diagnose(
             break
         accepted = None
         unexplained_bands = []
-        if deadline is not None and time.process_time() > deadline:
+        if deadline is not None and clock() > deadline:
             warn.append(f"time budget of {time_budget:g} s reached: the bands left were not examined")
             unexplained_bands = list(loc.bands)
             break
@@ -534,7 +600,8 @@ def diagnose(
                     setup_notes.append(why)
                     say(why)
             say(f"band {band.lo:.4g}-{band.hi:.4g} rad/s: trying {', '.join(ids)}")
-            ranked = rank_candidates(meas, fit, lz, band, loc.sigma_rel, ids, progress=say, deadline=deadline)
+            ranked = rank_candidates(meas, fit, lz, band, loc.sigma_rel, ids, progress=say, deadline=deadline,
+                                     warm=warm, cache=cache, pool=pool, clock=clock)
             tried.append(
                 {
                     "round": rnd,
@@ -559,7 +626,7 @@ def diagnose(
             )
             pick, notes = choose(ranked)
             tried[-1]["choice"] = notes
-            if deadline is not None and time.process_time() > deadline:
+            if deadline is not None and clock() > deadline:
                 warn.append(
                     f"time budget of {time_budget:g} s reached while trying candidates for the band "
                     f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted"

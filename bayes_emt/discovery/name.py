@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,13 +43,13 @@ from scipy import optimize
 
 from ..errors import FitError
 from ..estimation.augment import augmentation_starts
-from ..estimation.fitting import fit_admittance
+from ..estimation.fitting import fit_admittance, fit_reusing
 from ..estimation.results import FitResult
 from ..evidence.fit_evidence import Evidence, fit_log_evidence
 from ..evidence.scale import verbal
 from ..inference.likelihood import Likelihood
 from ..measurement import Measurement
-from ..models import EDDY_PHYSICS, Model, make_term
+from ..models import EDDY_PHYSICS, Model, make_term, parse_model_spec
 from ..models.residual import relative_residual, rms_relative_residual
 from .candidates import escalations
 from .locate import Band, scan_statistics
@@ -59,8 +60,12 @@ __all__ = [
     "max_log_likelihood",
     "band_chi2",
     "fit_candidate",
+    "fit_jobs",
+    "CpuClock",
+    "FitCache",
     "rank_candidates",
     "MIN_DELTA_LOG_Z",
+    "REFINE_TOP",
     "MIN_WHITENING",
     "MAX_REL_SE",
 ]
@@ -230,11 +235,20 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str,
 
 
 def fit_candidate(
-    meas: Measurement, current: FitResult, physics: str, band: Band
+    meas: Measurement, current: FitResult, physics: str, band: Band, *, warm: bool = True,
+    cache: dict | None = None,
 ) -> list[tuple[FitResult, Evidence]]:
     """``(fit, evidence)`` of ``physics`` added to ``current.model`` (module docstring); for
     the eddy-current escalation one per escalated coil model; for a joint ``"a+b"`` the second
-    term added to the first's fit (``current`` is then that fit). Fits that fail are left out."""
+    term added to the first's fit (``current`` is then that fit). Fits that fail are left out.
+
+    ``warm`` (default): a catalogue term's starts, which :func:`augmentation_starts` builds from
+    ``current``'s fit (the shared parameters at their fitted values), are polished directly
+    (:func:`fit_admittance` ``warm=True``: no paper steps 1-2, which only hand on a start); without
+    it each start runs the full fit. ``cache``: a :class:`FitCache` of ``meas``, read and filled: a
+    coil model of the escalation (and the nested fits its start-up needs: NL's UL surrogate, the
+    model without its last augmentation) is fitted once per diagnosis whatever the band or round;
+    the result does not depend on it (:func:`~bayes_emt.estimation.fitting.fit_reusing`)."""
     out = []
     if "+" in physics:
         physics = physics.split("+")[-1]
@@ -243,10 +257,10 @@ def fit_candidate(
         best = -math.inf
         for model in escalations(current.model):
             try:
-                fit = fit_admittance(meas, model)
+                fit = fit_reusing(meas, model, None if cache is None else cache.fits)
             except (FitError, ValueError):
                 continue
-            ev = fit_log_evidence(meas, fit)
+            ev = fit_log_evidence(meas, fit) if cache is None else cache.evidence_of(meas, fit)
             lz = ev.log_z
             out.append((fit, ev))
             if model.rings is not None:  # the ring ladder
@@ -262,7 +276,7 @@ def fit_candidate(
     fits = []
     for s in starts[:STARTS_POLISHED]:
         try:
-            fits.append(fit_admittance(meas, new, initial=s))
+            fits.append(fit_admittance(meas, new, initial=s, warm=warm))
         except (FitError, ValueError):
             continue
     ok = [f for f in fits if not f.info.get("resonance_mismatch")] or fits
@@ -282,6 +296,127 @@ def fit_candidate(
     return [(best, fit_log_evidence(meas, best))]
 
 
+class FitCache:
+    """Fits of one measurement from the automatic start, ``fits`` ``{model label: FitResult}``
+    (:func:`~bayes_emt.estimation.fitting.fit_reusing`), and their evidence, ``evidence``
+    ``{model label: (fit, Evidence)}``."""
+
+    def __init__(self):
+        self.fits: dict = {}
+        self.evidence: dict = {}
+
+    def evidence_of(self, meas: Measurement, fit: FitResult) -> Evidence:
+        """:func:`fit_log_evidence` of ``fit``, computed once per fit."""
+        hit = self.evidence.get(fit.model.label)
+        if hit is not None and hit[0].model.names == fit.model.names and \
+                np.array_equal(hit[0].theta, fit.theta):
+            return hit[1]
+        ev = fit_log_evidence(meas, fit)
+        self.evidence[fit.model.label] = (fit, ev)
+        return ev
+
+    def new_since(self, other: FitCache) -> FitCache:
+        """The entries of this cache ``other`` does not hold."""
+        out = FitCache()
+        out.fits = {k: v for k, v in self.fits.items() if k not in other.fits}
+        out.evidence = {k: v for k, v in self.evidence.items() if k not in other.evidence}
+        return out
+
+    def update(self, other: FitCache) -> None:
+        for k, v in other.fits.items():
+            self.fits.setdefault(k, v)
+        for k, v in other.evidence.items():
+            self.evidence.setdefault(k, v)
+
+    def copy(self) -> FitCache:
+        out = FitCache()
+        out.fits, out.evidence = dict(self.fits), dict(self.evidence)
+        return out
+
+
+class CpuClock:
+    """CPU seconds of this process plus those its worker processes reported (:func:`fit_jobs`), for a
+    time budget that means the same with and without a pool."""
+
+    def __init__(self):
+        self.workers = 0.0
+
+    def __call__(self) -> float:
+        return time.process_time() + self.workers
+
+
+def portable(meas: Measurement) -> tuple:
+    """``meas`` as arrays and a dict, for a worker process (its metadata mapping does not pickle)."""
+    return (np.asarray(meas.omega), np.asarray(meas.Y), meas.weights, dict(meas.meta))
+
+
+def base_task(meas_parts, name: str):
+    """One base model fitted from the automatic start in a worker process: ``(fit, evidence, CPU
+    seconds)``, ``(None, None, s)`` when it cannot be fitted."""
+    t = time.process_time()
+    omega, Y, w, meta = meas_parts
+    meas = Measurement(omega, Y, w, meta)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            fit = fit_admittance(meas, parse_model_spec(name))
+        except (FitError, ValueError):
+            return None, None, time.process_time() - t
+        ev = fit_log_evidence(meas, fit)
+    return fit, ev, time.process_time() - t
+
+
+def _candidate_task(meas_parts, base, physics, band, warm, known):
+    """One candidate in a worker process: ``(fits, CPU seconds, new cache entries)``."""
+    t = time.process_time()
+    omega, Y, w, meta = meas_parts
+    cache = None if known is None else known.copy()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = fit_candidate(Measurement(omega, Y, w, meta), base, physics, band, warm=warm, cache=cache)
+    return res, time.process_time() - t, None if cache is None else cache.new_since(known)
+
+
+def fit_jobs(meas: Measurement, jobs, band: Band, *, warm: bool = True, cache: dict | None = None,
+             pool=None, clock=None, deadline: float | None = None):
+    """``(physics, base, fits, seconds)`` of each job ``(physics, base)`` in the order given
+    (:func:`fit_candidate`), lazily: a job is not started once ``clock()`` passes ``deadline``
+    (``(physics, base, None, 0)`` then, and nothing after it). With ``pool`` (a
+    :class:`concurrent.futures.Executor` of processes) the jobs run in parallel, the eddy-current
+    escalation (the slowest) submitted first; the order of the results, and so every decision, is
+    the same as without it; the workers' CPU time is added to ``clock`` (a :class:`CpuClock`)."""
+    clock = clock or time.process_time
+    if pool is None:
+        for physics, base in jobs:
+            if deadline is not None and clock() > deadline:
+                yield physics, base, None, 0.0
+                return
+            t0 = time.perf_counter()
+            yield physics, base, fit_candidate(meas, base, physics, band, warm=warm, cache=cache), \
+                time.perf_counter() - t0
+        return
+    if deadline is not None and clock() > deadline and jobs:
+        yield jobs[0][0], jobs[0][1], None, 0.0
+        return
+    parts = portable(meas)
+    order = sorted(range(len(jobs)), key=lambda i: jobs[i][0] != EDDY_PHYSICS)
+    t0 = time.perf_counter()
+    futures = {i: pool.submit(_candidate_task, parts, jobs[i][1], jobs[i][0], band, warm,
+                              cache if jobs[i][0] == EDDY_PHYSICS else None) for i in order}
+    for i, (physics, base) in enumerate(jobs):
+        if deadline is not None and clock() > deadline:
+            for f in futures.values():
+                f.cancel()
+            yield physics, base, None, 0.0
+            return
+        res, cpu, new = futures[i].result()
+        if hasattr(clock, "workers"):
+            clock.workers += cpu
+        if cache is not None and new is not None:
+            cache.update(new)
+        yield physics, base, res, time.perf_counter() - t0
+
+
 def rank_candidates(
     meas: Measurement,
     current: FitResult,
@@ -292,83 +427,55 @@ def rank_candidates(
     progress=None,
     deadline: float | None = None,
     joint: bool = True,
+    *,
+    warm: bool = True,
+    cache: FitCache | None = None,
+    pool=None,
+    clock=None,
+    refine: int | None = None,
 ) -> list[Candidate]:
     """Every candidate of ``physics_ids`` for ``band``, best first (accepted first, then by
     ``Δ log Z``). Patches (:func:`.prefer.is_patch`) are accepted only with determined parameters
     and, for a step, a discontinuity of their own (:func:`.prefer.step_evidence`). With ``joint``,
     when no physical term alone is accepted or a patch leads, pairs of the best physical terms are
-    tried together (the second added to the first's fit)."""
+    tried together (the second added to the first's fit).
+
+    ``warm``, ``cache``: :func:`fit_candidate`'s; with ``warm`` the ``refine`` (default
+    :data:`REFINE_TOP`) single terms leading by ``Δ log Z`` (a step term aside: its fits are ranked
+    by frequency) are fitted again the full way (:func:`fit_candidate` ``warm=False``), and the full
+    fit replaces the warm one when its χ² is lower: the warm start screens, the leaders get the full
+    search. ``pool``: run the candidates of a batch in parallel (:func:`fit_jobs`; the same ranking as
+    without); ``clock``: the CPU clock ``deadline`` is on (default :func:`time.process_time`; a
+    :class:`CpuClock` counts the pool's workers too)."""
+    refine = REFINE_TOP if refine is None else refine
     from .prefer import is_patch, step_evidence
 
     before = band_chi2(meas, current.model, current.theta, band, sigma_rel)
     scan0 = band_scan(meas, current.model, current.theta, band, sigma_rel)
     n_band = 2 * (band.i_hi - band.i_lo + 1)
     out = []
-    jobs = [(p, current) for p in physics_ids]
-    tried_joint = not joint
-    while jobs or not tried_joint:
-        if not jobs:
-            tried_joint = True
-            jobs = _joint_jobs(out, current)
-            if jobs and progress:
-                progress("  trying physical terms jointly: " + ", ".join(p for p, _ in jobs))
-            continue
-        physics, base = jobs.pop(0)
-        if deadline is not None and time.process_time() > deadline:
-            if progress:
-                progress(f"time budget reached: {physics} and later candidates not tried")
-            break
-        t0 = time.perf_counter()
-        for fit, ev in fit_candidate(meas, base, physics, band):
-            lz = ev.log_z
-            if progress:
-                how = "" if not ev.fallback else f" [{ev.method}: {ev.note}]"
-                dt = time.perf_counter() - t0
-                progress(f"  {physics}: {fit.model.label} log Z {lz:.1f}{how} ({dt:.0f} s)")
-            if not math.isfinite(lz):
-                continue
-            after = band_chi2(meas, fit.model, fit.theta, band, sigma_rel)
-            new_names = [n for n in fit.model.names if n not in current.model.names]
-            ident, why, added = _identifiable(fit, new_names, physics, ev)
-            values = fit.model.as_dict(fit.theta)
-            ids = physics.split("+")
-            bad = next(
-                (
-                    w
-                    for t in fit.model.augmentations
-                    if t.id in ids and (w := t.implausible(values)) is not None
-                ),
-                None,
-            )
-            bad = bad or _at_prior_bound(fit, new_names)
-            if physics != EDDY_PHYSICS:  # a coil model's escalation re-fits R0 with the coil
-                bad = bad or _takes_r0(current, fit) or _moves_fs(current, fit, ids)
-            patch = is_patch(physics, fit)
-            problem = None
-            if patch:
-                problem = (None if ident else f"a patch with undetermined parameters ({why})")
-                problem = problem or step_evidence(meas, current, fit, physics)
-            out.append(
-                Candidate(
-                    physics,
-                    fit,
-                    lz,
-                    lz - current_log_z,
-                    before,
-                    after,
-                    ident,
-                    why,
-                    n_band,
-                    scan0,
-                    band_scan(meas, fit.model, fit.theta, band, sigma_rel),
-                    added,
-                    bad,
-                    ev.method,
-                    ev.note,
-                    patch,
-                    problem,
-                )
-            )
+    batches = [[(p, current) for p in physics_ids]]
+    pairs_due, first, stopped = joint, True, False
+    ctx = (current_log_z, before, scan0, n_band, progress, is_patch, step_evidence)
+    while batches:
+        for physics, _base, res, dt in fit_jobs(meas, batches.pop(0), band, warm=warm, cache=cache,
+                                                pool=pool, clock=clock, deadline=deadline):
+            if res is None:
+                if progress:
+                    progress(f"time budget reached: {physics} and later candidates not tried")
+                pairs_due, stopped = False, True
+                break
+            out.extend(_candidates(meas, current, band, sigma_rel, physics, res, dt, *ctx))
+        if first and warm and refine and not stopped:
+            _refine(meas, current, band, sigma_rel, out, refine, ctx, pool, clock, deadline)
+        first = False
+        if pairs_due:
+            pairs_due = False
+            pairs = _joint_jobs(out, current)
+            if pairs:
+                if progress:
+                    progress("  trying physical terms jointly: " + ", ".join(p for p, _ in pairs))
+                batches.append(pairs)
     # the eddy-current escalation: keep only its best rung (the ring count by evidence), and its best
     # physical rung (the first) beside a better patch rung
     eddy = [c for c in out if c.physics == EDDY_PHYSICS]
@@ -376,6 +483,94 @@ def rank_candidates(
     best_phys = max((c for c in eddy if not c.patch), key=lambda c: c.log_z, default=None)
     out = [c for c in out if c.physics != EDDY_PHYSICS or c is best_eddy or c is best_phys]
     out.sort(key=lambda c: (not c.accepted, -c.delta_log_z))
+    return out
+
+
+#: warm-started single terms, the best by Δ log Z, fitted again the full way (:func:`rank_candidates`)
+REFINE_TOP = 2
+
+
+def _refine(meas, current, band, sigma_rel, out, n, ctx, pool, clock, deadline) -> None:
+    """Fit the ``n`` leading warm-started single terms of ``out`` the full way; a full fit of lower χ²
+    replaces its warm candidate in ``out`` (:func:`rank_candidates`)."""
+    best: dict = {}
+    for c in out:
+        if c.physics == EDDY_PHYSICS or "+" in c.physics or not math.isfinite(c.delta_log_z) \
+                or make_term(c.physics).step_at:
+            continue
+        if c.physics not in best or c.delta_log_z > best[c.physics].delta_log_z:
+            best[c.physics] = c
+    top = sorted(best.values(), key=lambda c: -c.delta_log_z)[:n]
+    progress = ctx[4]
+    if top and progress:
+        progress("  the leaders fitted the full way: " + ", ".join(c.physics for c in top))
+    for physics, _base, res, dt in fit_jobs(meas, [(c.physics, current) for c in top], band, warm=False,
+                                            pool=pool, clock=clock, deadline=deadline):
+        if res is None:
+            break
+        new = _candidates(meas, current, band, sigma_rel, physics, res, dt, *ctx)
+        old = best[physics]
+        if new and new[0].fit.chi2 < old.fit.chi2 * (1 - 1e-9):
+            if progress:
+                progress(f"  {physics}: the full fit is better (chi2 {old.fit.chi2:.6g} -> "
+                         f"{new[0].fit.chi2:.6g}, log Z {old.log_z:.1f} -> {new[0].log_z:.1f}): it replaces "
+                         "the warm one")
+            out[next(i for i, c in enumerate(out) if c is old)] = new[0]
+
+
+def _candidates(meas, current, band, sigma_rel, physics, res, dt, current_log_z, before, scan0, n_band,
+                progress, is_patch, step_evidence) -> list[Candidate]:
+    """The :class:`Candidate` of each ``(fit, evidence)`` of ``physics`` (:func:`rank_candidates`)."""
+    out = []
+    for fit, ev in res:
+        lz = ev.log_z
+        if progress:
+            how = "" if not ev.fallback else f" [{ev.method}: {ev.note}]"
+            progress(f"  {physics}: {fit.model.label} log Z {lz:.1f}{how} ({dt:.0f} s)")
+        if not math.isfinite(lz):
+            continue
+        after = band_chi2(meas, fit.model, fit.theta, band, sigma_rel)
+        new_names = [n for n in fit.model.names if n not in current.model.names]
+        ident, why, added = _identifiable(fit, new_names, physics, ev)
+        values = fit.model.as_dict(fit.theta)
+        ids = physics.split("+")
+        bad = next(
+            (
+                w
+                for t in fit.model.augmentations
+                if t.id in ids and (w := t.implausible(values)) is not None
+            ),
+            None,
+        )
+        bad = bad or _at_prior_bound(fit, new_names)
+        if physics != EDDY_PHYSICS:  # a coil model's escalation re-fits R0 with the coil
+            bad = bad or _takes_r0(current, fit) or _moves_fs(current, fit, ids)
+        patch = is_patch(physics, fit)
+        problem = None
+        if patch:
+            problem = (None if ident else f"a patch with undetermined parameters ({why})")
+            problem = problem or step_evidence(meas, current, fit, physics)
+        out.append(
+            Candidate(
+                physics,
+                fit,
+                lz,
+                lz - current_log_z,
+                before,
+                after,
+                ident,
+                why,
+                n_band,
+                scan0,
+                band_scan(meas, fit.model, fit.theta, band, sigma_rel),
+                added,
+                bad,
+                ev.method,
+                ev.note,
+                patch,
+                problem,
+            )
+        )
     return out
 
 

@@ -53,7 +53,7 @@ from .guess import find_initial_estimate
 from .meter import Meter, as_meter, conflict_warning, cut_covariance, per_ohm
 from .results import FitResult
 
-__all__ = ["fit_admittance", "covariance_z", "relative_residuals", "central_jacobian",
+__all__ = ["fit_admittance", "fit_reusing", "covariance_z", "relative_residuals", "central_jacobian",
            "forward_jacobian", "batched_least_squares"]
 
 _FD_STEP = 1e-6  # central-difference step in sampling space (relative for log parameters)
@@ -168,7 +168,39 @@ def _as_theta(model: Model, initial) -> np.ndarray:
     return theta
 
 
-def _starts(meas: Measurement, model: Model, initial, max_nfev):
+def fit_reusing(meas: Measurement, model: Model, reuse: dict | None,
+                max_nfev: int | None = None) -> FitResult:
+    """``fit_admittance(meas, model, max_nfev=max_nfev)`` (automatic start), taken from ``reuse``
+    ``{model label: FitResult}`` (fits of ``meas`` from the automatic start) when it holds that fit:
+    the same model and priors, and every step of it ended before its evaluation budget under this
+    call's ``max_nfev`` as under its own (the least-squares solver's path does not depend on the
+    budget until it runs out, so the fit is the same). A new fit is added to ``reuse``."""
+    if reuse is not None:
+        hit = reuse.get(model.label)
+        if hit is not None and _same_fit(hit, model, meas, max_nfev):
+            return hit
+    fit = fit_admittance(meas, model, max_nfev=max_nfev, reuse=reuse)
+    if reuse is not None:
+        reuse.setdefault(model.label, fit)
+    return fit
+
+
+def _same_fit(fit: FitResult, model: Model, meas: Measurement, max_nfev: int | None) -> bool:
+    if fit.n_points != meas.n_points or fit.model.names != model.names \
+            or fit.model.params.to_dict() != model.params.to_dict() \
+            or fit.info.get("initial", {}).get("path") == "user":
+        return False
+    k = model.ndim
+    polish = max_nfev or 25 * k
+    if fit.info.get("max_nfev") == polish:
+        return True  # the same call
+    mid = min(polish, 30 * k)
+    steps = fit.info.get("steps", [])
+    return bool(steps) and all(
+        st["status"] != 0 and st["nfev"] < (polish if st["step"].startswith("3") else mid) for st in steps)
+
+
+def _starts(meas: Measurement, model: Model, initial, max_nfev, reuse=None):
     """Starting vectors (best first), their provenance, and the record for ``info["initial"]``."""
     if initial is not None:
         return [_as_theta(model, initial)], ["user"], {"path": "user"}
@@ -177,7 +209,7 @@ def _starts(meas: Measurement, model: Model, initial, max_nfev):
         # band where it acts (the term's ``start``); several augmentations are added one by one
         last = model.augmentations[-1]
         prev = model.without(last)
-        prev_fit = fit_admittance(meas, prev, max_nfev=max_nfev)
+        prev_fit = fit_reusing(meas, prev, reuse, max_nfev)
         aug, thetas = augmentation_starts(meas, prev, prev_fit.theta, last)
         starts = [model.vector(aug.as_dict(t)) for t in thetas]
         return (starts, [f"{prev.label} fit + {last.id} start {i}" for i in range(len(starts))],
@@ -192,7 +224,7 @@ def _starts(meas: Measurement, model: Model, initial, max_nfev):
         coarse = model
         for t, (sur, _) in surrogates:
             coarse = coarse.replace_term(t, sur)
-        cfit = fit_admittance(meas, coarse, max_nfev=max_nfev)
+        cfit = fit_reusing(meas, coarse, reuse, max_nfev)
         vals = cfit.parameters
         for _, (sur, convert) in surrogates:
             conv = convert(vals)
@@ -283,7 +315,7 @@ def _rejection(model: Model, z, cost: float, final, where: str) -> dict:
 def fit_admittance(meas: Measurement, model: Model, *, initial=None,
                    omega_range: tuple[float | None, float | None] | None = None,
                    polish: bool = True, max_nfev: int | None = None,
-                   re=None) -> FitResult:
+                   re=None, warm: bool = False, reuse: dict | None = None) -> FitResult:
     """Fit ``model`` to ``meas`` from the automatic initial estimate (SPEC §3.1–3.2).
 
     Parameters
@@ -306,6 +338,15 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         regression on ``R0`` (:mod:`~bayes_emt.estimation.meter`). Mode ``"prior"``: ``sd_held = sd``
         and the covariance includes the penalty. ``info["re"]`` records the reading, the data-only
         ``R0_data`` ± ``R0_data_sd`` and ``conflict_sd``; beyond 3 a ``re_conflict`` warning.
+    warm : ``initial`` is a warm start (a fit of a nested model with the added parameters started
+        by :func:`~bayes_emt.estimation.augment.augmentation_starts`, as the discrepancy search's
+        candidates are): the paper's steps 1-2, which only hand on a starting point, are skipped and
+        the polish runs from the end of step 0. From such a start the fit without ``warm`` ends in
+        the same polish from step 0 unless steps 1-2 reach a better valley. Needs ``initial`` and
+        ``polish``.
+    reuse : ``{model label: FitResult}``: the nested fits the start-up needs (the model without its
+        last augmentation; NL's UL surrogate) are taken from it when it holds the same fit
+        (:func:`fit_reusing`), and added to it otherwise. The result does not depend on it.
 
     Returns
     -------
@@ -317,7 +358,8 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         steps, where the polish began), ``final_start`` (``"step 2"`` or ``"step 0"``), ``steps``
         (label, nfev, cost, status, seconds each), ``seconds``, ``at_prior_bound`` (if any),
         ``rejected`` (candidates with a lower cost but ``ω0`` away from the resonance the data
-        shows, see :func:`_resonance_rule`) and ``resonance_mismatch`` (the estimate itself is).
+        shows, see :func:`_resonance_rule`), ``resonance_mismatch`` (the estimate itself is) and
+        ``max_nfev`` (the polish's evaluation budget).
 
     Raises
     ------
@@ -325,14 +367,16 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     FitError : no initial estimate, or the fit diverged.
     """
     t0 = time.perf_counter()
+    if warm and (initial is None or not polish):
+        raise ValueError("fit_admittance: warm=True needs an initial (the warm start) and the polish")
     if omega_range is not None:
         meas = meas.select(*omega_range)
     model = model.bind(meas.omega)
     resonance = check_fit_inputs(meas, model.ndim, label=model.label)
     k = model.ndim
     max_nfev = max_nfev or 25 * k
-    starts, labels, info_initial = _starts(meas, model, initial, max_nfev)
-    info: dict = {"initial": info_initial}
+    starts, labels, info_initial = _starts(meas, model, initial, max_nfev, reuse)
+    info: dict = {"initial": info_initial, "max_nfev": max_nfev}
     lo, hi = model.params.bounds_z()
     s = 1j * meas.omega
     all_free = np.ones(k, bool)
@@ -374,15 +418,20 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     cost0, z0, info["start_used"], _ = best
     info["path"] = (f"start {info['start_used']} ({labels[info['start_used']]}) of {len(starts)}, "
                     "steps 0-2")
-    z, _ = run(z0, 1.0 / np.abs(s), all_free, "1: all parameters, W = 1/s", **mid)
-    keep = np.isin(model.names, ("R0", "omega0"))
-    z, sol = run(z, np.ones(meas.n_points), ~keep, "2: R0, omega0 fixed, W = 1", **mid)
-    info["final_start"] = "step 2"
+    if warm:
+        info["path"] = f"warm start ({labels[0]}), step 0"
+        z = z0
+        info["final_start"] = "step 0"
+    else:
+        z, _ = run(z0, 1.0 / np.abs(s), all_free, "1: all parameters, W = 1/s", **mid)
+        keep = np.isin(model.names, ("R0", "omega0"))
+        z, sol = run(z, np.ones(meas.n_points), ~keep, "2: R0, omega0 fixed, W = 1", **mid)
+        info["final_start"] = "step 2"
     if polish:
         # the polish works on the relative residuals themselves (no order-one normalisation)
         t = time.perf_counter()
         sol = final.solve(z, lo, hi, max_nfev)
-        if final.cost(z0) < 2 * sol.cost or not plausible(sol.x):
+        if not warm and (final.cost(z0) < 2 * sol.cost or not plausible(sol.x)):
             # the paper's steps ended in a worse valley than the start-up: polish that too
             alt = final.solve(z0, lo, hi, max_nfev)
             if (plausible(alt.x), -alt.cost) > (plausible(sol.x), -sol.cost):

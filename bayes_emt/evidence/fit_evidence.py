@@ -83,6 +83,11 @@ IS_DOF = 5
 MIN_ESS = 10
 #: re-whitening passes of the Hessian at most
 MAX_PASSES = 8
+#: parameter sets per call of the log density: the importance sampling's 4000 draws and the line
+#: grids evaluated in blocks of this many (the same values; a model without the likelihood's fast
+#: path makes several (n, F) temporaries per call, and blocks that fit the cache halve its time on a
+#: 2000-point recording)
+BLOCK_ROWS = 64
 
 
 @dataclass(frozen=True)
@@ -123,7 +128,8 @@ def _slice(g, c: float = 0.1, t_max: float = 1e4, tol: float = 0.01):
     The range is found by doubling ``|t|`` from ``c`` until ``g`` drops by :data:`DROP` nats or
     leaves the support (``nan`` if it does not by ``t_max``: an improper direction); the integral
     is the trapezoid rule in ``u = asinh(t/c)`` (points dense near ``t = 0``, sparse far out),
-    doubled until two successive rules agree within ``tol`` nats. Returns ``(log I, t, g(t))``
+    doubled until two successive rules agree within ``tol`` nats (a doubled grid reuses the values
+    at the points it shares with the last). Returns ``(log I, t, g(t))``
     on the last grid."""
 
     def gv(t):
@@ -140,11 +146,17 @@ def _slice(g, c: float = 0.1, t_max: float = 1e4, tol: float = 0.01):
                 return float("nan"), None, None
         ends.append(sign * t)
     u_hi, u_lo = math.asinh(ends[0] / c), math.asinh(ends[1] / c)
-    prev = None
+    prev = v = None
     for n in (201, 401, 801, 1601, 3201, 6401):
         u = np.linspace(u_lo, u_hi, n)
         t = c * np.sinh(u)
-        v = gv(t)
+        if v is None:
+            v = gv(t)
+        else:  # each grid holds the last one's points (every other point): only the new ones evaluated
+            v_new = np.empty(n)
+            v_new[0::2] = v
+            v_new[1::2] = gv(t[1::2])
+            v = v_new
         m = float(np.max(v))
         if not math.isfinite(m):
             return float("nan"), None, None
@@ -300,6 +312,20 @@ def subspace_laplace(log_density_z, names, z_mode, warp: Warp, seed: int = 0) ->
     return float(log_z), note, tuple(flat)
 
 
+def blocked(log_density_z, rows: int = BLOCK_ROWS):
+    """``log_density_z`` evaluated in blocks of at most ``rows`` parameter sets (:data:`BLOCK_ROWS`):
+    the same function of ``z (n, k) -> (n,)``, at a fraction of the memory traffic for large ``n``."""
+
+    def f(z):
+        z = np.asarray(z, float)
+        if z.ndim < 2 or z.shape[0] <= rows:
+            return log_density_z(z)
+        return np.concatenate([np.asarray(log_density_z(z[i:i + rows]), float)
+                               for i in range(0, z.shape[0], rows)])
+
+    return f
+
+
 def fit_start(lik: Likelihood, fit) -> tuple[np.ndarray, np.ndarray, Warp]:
     """The Laplace screen's start from a least-squares ``fit``: ``(z0, scale, warp)`` in ``lik``'s
     sampling space. ``z0`` is the fit's values with the noise scales started from its residual
@@ -331,7 +357,7 @@ def fit_log_evidence(meas: Measurement, fit, *, lik: Likelihood | None = None) -
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            res = laplace_evidence(lik.log_posterior_z, lik.params, z0, scale, warp=warp)
+            res = laplace_evidence(blocked(lik.log_posterior_z), lik.params, z0, scale, warp=warp)
         if res.ok and math.isfinite(res.log_z):
             return Evidence(float(res.log_z), "laplace", n_calls=int(res.n_calls))
         why = res.message or "the Laplace screen failed"
@@ -351,7 +377,7 @@ def fit_log_evidence(meas: Measurement, fit, *, lik: Likelihood | None = None) -
             mode = posterior_mode(lik, starts, scale + 1e-12 * np.eye(lik.ndim))
             # every bounded coordinate logit-mapped: a flat direction then ends inside the
             # prior's support by the map's Jacobian, and no difference point can leave it
-            lz, note, flat = subspace_laplace(lik.log_posterior_z, list(lik.params.names), mode,
+            lz, note, flat = subspace_laplace(blocked(lik.log_posterior_z), list(lik.params.names), mode,
                                               Warp.of(lik.params))
     except (ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
         return Evidence(float("nan"), "failed", f"{why}; fallback failed: {e}")

@@ -57,6 +57,9 @@ def register(sub) -> None:
     p.add_argument("--time-budget", type=nonnegative_float, default=240.0, metavar="CPU_S",
                    help="CPU seconds after which no further candidate is fitted (a warning says so; "
                         "default 240); 0: no budget, so the result does not depend on the machine's speed")
+    p.add_argument("--workers", type=int_at_least(0), default=None, metavar="N",
+                   help="processes fitting a band's candidates in parallel (default 2, at most one per core; "
+                        "1: none; 0: one per core); the findings do not depend on it")
     add_re_option(p)
     add_output_args(p)
     p.set_defaults(func=run)
@@ -88,6 +91,7 @@ def run(args) -> int:
         time_budget=args.time_budget or None,
         setup=args.setup,
         exclude_band=args.exclude_band,
+        workers=args.workers,
         progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)),
     )
     print(

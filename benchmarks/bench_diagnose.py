@@ -1,0 +1,99 @@
+"""``diagnose`` on the real recordings against one UD fit of the same file (issue 23, acceptance 1).
+
+For each recording of ``../shared/realdata`` (read and band-limited as
+:data:`bayes_emt.io.datasets.REALDATA_FILES` says; skipped when the folder is absent), in the same
+process and run: the wall time of one UD fit (``fit_admittance(meas, UD)``, the best of three calls,
+so a slow spell of a shared machine does not flatter the ratio), then one diagnosis from the base
+model the evidence prefers (setup ``unknown``, the default time budget of 240 CPU s, seed 0), its
+wall and CPU time (this process and its worker processes), the ratio of the two wall times (and of
+the two CPU times, which the load of a shared machine does not inflate), whether the budget was
+hit (when it was not, the search is the unbudgeted one: the budget only stops work) and the
+findings. BLAS on one core (the diagnosis's two worker processes are its default):
+
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 \\
+        .venv/bin/python benchmarks/run.py --no-compare -k diagnose
+
+Target (issue 23): a ratio of at most 10 on every file. ``BENCH_DIAGNOSE_FILES`` (comma-separated
+names) restricts the files; ``BENCH_DIAGNOSE_WORKERS`` sets ``diagnose``'s ``workers`` (default: the
+library's). The details record the load average: the wall times grow with the machine's load,
+the CPU times do not. No ``BENCHMARKS`` entry (minutes per file): figures of merit only, this tree.
+"""
+
+import os
+import resource
+import time
+import warnings
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+REAL = ROOT.parent / "shared" / "realdata"
+TARGET_RATIO = 10.0
+
+
+def _files() -> list[str]:
+    from bayes_emt.io.datasets import REALDATA_FILES
+
+    only = [s for s in os.environ.get("BENCH_DIAGNOSE_FILES", "").split(",") if s]
+    return [n for n in sorted(REALDATA_FILES) if not only or n in only]
+
+
+def _children_cpu() -> float:
+    """CPU seconds of this process's finished children (the diagnosis's worker processes)."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def one(name: str, workers: int | None = None) -> dict:
+    """The figures of one recording (module docstring)."""
+    from bayes_emt.discovery import diagnose
+    from bayes_emt.estimation.fitting import fit_admittance
+    from bayes_emt.io.datasets import load_realdata
+    from bayes_emt.models import parse_model_spec
+
+    meas = load_realdata(REAL, name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ud, ud_cpu = [], []
+        for _ in range(3):
+            t, c = time.perf_counter(), time.process_time()
+            fit_admittance(meas, parse_model_spec("UD"))
+            ud.append(time.perf_counter() - t)
+            ud_cpu.append(time.process_time() - c)
+        t, c, ch = time.perf_counter(), time.process_time(), _children_cpu()
+        d = diagnose(meas, None, seed=0, **({} if workers is None else {"workers": workers}))
+        wall, cpu = time.perf_counter() - t, time.process_time() - c + _children_cpu() - ch
+    return {
+        "n_points": meas.n_points,
+        "ud_fit_s": min(ud),
+        "ud_fit_cpu_s": min(ud_cpu),
+        "diagnose_s": wall,
+        "diagnose_cpu_s": cpu,
+        "ratio": wall / min(ud),
+        "cpu_ratio": cpu / min(ud_cpu),
+        "budget_hit": any("time budget" in w for w in d.warnings),
+        "final_model": d.final_model,
+        "findings": [f.physics for f in d.findings],
+        "load_average_1min": os.getloadavg()[0],
+    }
+
+
+def measure() -> dict:
+    if not REAL.exists():
+        return {"results": {}, "targets": {}, "details": {"diagnose_realdata": f"no recordings at {REAL}"}}
+    w = os.environ.get("BENCH_DIAGNOSE_WORKERS")
+    workers = int(w) if w else None
+    rows = {name: one(name, workers) for name in _files()}
+    return {
+        "results": {"diagnose_x_one_ud_fit": {n: r["ratio"] for n, r in rows.items()},
+                    "diagnose_cpu_x_one_ud_fit_cpu": {n: r["cpu_ratio"] for n, r in rows.items()},
+                    "diagnose_budget_hit": {n: int(r["budget_hit"]) for n, r in rows.items()}},
+        "targets": {**{f"diagnose_x_one_ud_fit.{n}": ["<=", TARGET_RATIO] for n in rows},
+                    **{f"diagnose_budget_hit.{n}": ["<=", 0] for n in rows}},
+        "details": {"diagnose_realdata": {"workers": workers, "rows": rows}},
+    }
+
+
+if __name__ == "__main__":
+    import json
+
+    print(json.dumps(measure(), indent=1))
