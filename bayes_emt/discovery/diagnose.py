@@ -36,7 +36,7 @@ from ..models.derived import derived_values
 from .candidates import candidate_physics
 from .locate import ALPHA, Band, Location, locate_mismatch
 from .name import Candidate, log_evidence, max_log_likelihood, rank_candidates
-from .prefer import change_band, check_setup, choose, setup_excludes
+from .prefer import change_band, check_setup, choose, narrow_mode_note, setup_excludes, stability_review
 from .shape import describe_shape, residual_shape
 
 __all__ = ["Finding", "Diagnosis", "diagnose", "preferred_base_model", "BASELINE_CANDIDATES"]
@@ -151,6 +151,8 @@ class Diagnosis(Record):
     seconds: float = 0.0
     final_location: Location | None = field(default=None, compare=False)
     baseline_location: Location | None = field(default=None, compare=False)
+    #: joint-evidence records against second recordings (:func:`.joint.check_with`)
+    joint: tuple[dict, ...] = ()
 
     kind = "diagnosis"
 
@@ -183,6 +185,7 @@ class Diagnosis(Record):
             "unexplained_detail": list(self.unexplained),
             "locations": list(self.locations),
             "tried": list(self.tried),
+            "joint": list(self.joint),
         }
 
     @classmethod
@@ -198,6 +201,7 @@ class Diagnosis(Record):
             tuple(d.get("tried", ())),
             tuple(d.get("warnings", ())),
             float(d.get("seconds", 0.0)),
+            joint=tuple(d.get("joint", ())),
         )
 
     # ---- what a person reads -------------------------------------------------------------------
@@ -557,7 +561,7 @@ def diagnose(
                     ],
                 }
             )
-            pick, notes = choose(ranked)
+            pick, notes = choose(ranked, meas)
             tried[-1]["choice"] = notes
             if deadline is not None and time.process_time() > deadline:
                 warn.append(
@@ -611,7 +615,8 @@ def diagnose(
                 _explain(c, band, c.fit.model, moved)
                 + ("" if term is None or term.device else "; an instrument or session effect")
                 + (f"; {where['shape']}" if where["broadband"] else "")
-                + ("; a generic patch" if c.patch else ""),
+                + ("; a generic patch" if c.patch else "")
+                + (f"; {note}" if (note := narrow_mode_note(c.physics, c.fit)) else ""),
                 c.evidence_method,
                 c.evidence_note,
                 (located.lo, located.hi),
@@ -626,6 +631,10 @@ def diagnose(
             )
         say(findings[-1].explanation)
         fit, lz = c.fit, c.log_z
+    # issue 23: a patch whose values the rounds do not agree on is flagged, dropped when not needed
+    findings, fit, lz, stab = stability_review(meas, findings, fit, lz, lambda m, v: fit_admittance(
+        meas, m, initial=v), lambda f: log_evidence(meas, f))
+    warn.extend(stab)
     unexplained = []
     for band in unexplained_bands:
         shape = residual_shape(meas, fit.model, fit.theta, band)
