@@ -1,18 +1,20 @@
 """Joint evidence (issue 23): the physics a diagnosis names must explain a second recording too.
 
-A diagnosis of recording A names terms; a second recording B of the same transducer (a known
-added mass ``Δm`` [kg], or the same driver at another drive level or session: ``Δm`` ``None``)
-must need them as well, since the coil, the suspension and an instrument do not change with a
-mass on the cone. :func:`check_with` refits B with A's final model and, for each finding, with
-that finding taken out (a term removed; for the eddy-current escalation, the coil model it
-replaced), from A's final values (``ω0`` moved to B's resonance). The finding's evidence gain on B
-is ``Δ log Z_B = log Z_B(final) − log Z_B(final without it)`` (the Laplace screen of
-:mod:`bayes_emt.evidence`). A finding with ``Δ log Z_B <`` :data:`MIN_DELTA_LOG_Z` (the acceptance
-threshold of :mod:`.name`) is one only A needs: it is **flagged** (a warning). With ``Δm`` the
-joint added-mass fit (:func:`bayes_emt.added_mass.fit_added_mass`: one ``m, c, k, φ`` and one coil
-shared by both runs) is run with A's baseline and final models; the record gives ``m``, ``Bl``,
-``k``, ``R0`` and the pair's consistency F-test for each, so one sees whether the named physics
-explains both recordings in one fit.
+A diagnosis of recording A names terms; a second recording B of the same transducer (a known added
+mass ``Δm`` [kg], or the same driver at another drive level or session: ``Δm`` ``None``) must need
+them as well: the coil and the suspension do not change with a mass on the cone (an instrument step
+of one session is what B should not need, and is then flagged). :func:`check_with` refits B with A's
+final model and, for each finding, with that finding taken out (a term removed; for the eddy-current
+escalation, the coil model it replaced), from A's final values (``ω0`` moved to B's resonance). The
+finding's evidence gain on B is ``Δ log Z_B = log Z_B(final) − log Z_B(final without it)`` (the
+Laplace screen of :mod:`bayes_emt.evidence`; when it fails for the model without the term, far from
+B, that model's maximum log-likelihood stands in, as in :func:`.diagnose.diagnose`). A finding with
+``Δ log Z_B <`` :data:`MIN_DELTA_LOG_Z` (the acceptance threshold of :mod:`.name`) is one only A
+needs: it is **flagged** (a warning). With ``Δm`` the joint added-mass fit
+(:func:`bayes_emt.added_mass.fit_added_mass`: one ``m, c, k, φ`` and one coil shared by both runs)
+is run with A's baseline and final models; the record gives ``m``, ``Bl``, ``k``, ``R0`` and the
+pair's consistency F-test for each, so one sees whether the named physics explains both recordings
+in one fit.
 
 A term B needs but A did not name is not looked for here: diagnose B for that.
 """
@@ -29,7 +31,7 @@ from ..estimation.fitting import fit_admittance
 from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import EDDY_PHYSICS, Model, parse_model_spec
-from .name import MIN_DELTA_LOG_Z, log_evidence
+from .name import MIN_DELTA_LOG_Z, log_evidence, max_log_likelihood
 
 __all__ = ["check_with", "with_second_recordings", "model_without"]
 
@@ -84,6 +86,8 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
         try:
             f0 = _fit(other, m0, start_b)
             lz0 = log_evidence(other, f0)
+            if not math.isfinite(lz0):  # a model far from B: its maximum log-likelihood stands in
+                lz0 = max_log_likelihood(other, f0)
         except (FitError, ValueError) as exc:
             terms.append({"physics": f.physics, "delta_log_evidence_other": None, "needed_by_other": None,
                           "model_without": m0.label, "note": f"the fit without it failed: {exc}"})

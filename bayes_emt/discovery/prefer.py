@@ -363,13 +363,11 @@ def choose(ranked, meas: Measurement | None = None) -> tuple[object | None, list
 
 def unstable_patch_values(findings, fit: FitResult, se: float = STABLE_SE) -> dict:
     """``{physics: [words, ...]}`` of the patch findings (their explanation says "a generic patch")
-    whose added parameters, as named, differ in ``fit`` (a later round's) by more than ``se``
-    standard errors (the larger of the two rounds'; a parameter without one is not judged)."""
+    whose added parameters, as named, differ in ``fit`` (a later round's) by more than ``se`` of the
+    standard errors they were named with (a parameter named without one is not judged). The later
+    fit's own standard error does not excuse the move: a patch value the later fit no longer
+    determines is the same symptom."""
     now = fit.model.as_dict(fit.theta)
-    try:
-        now_se = {k: float(v) for k, v in fit.stderr.items()}
-    except (AttributeError, TypeError, ValueError):
-        now_se = {}
     out: dict = {}
     for f in findings:
         if "a generic patch" not in f.explanation:
@@ -377,9 +375,7 @@ def unstable_patch_values(findings, fit: FitResult, se: float = STABLE_SE) -> di
         for name, rec in (f.parameters.get("added") or {}).items():
             if name not in now or rec.get("stderr") is None:
                 continue
-            v0, s0 = float(rec["value"]), float(rec["stderr"])
-            s1 = now_se.get(name, float("nan"))
-            s = max(s0, s1) if math.isfinite(s1) else s0
+            v0, s = float(rec["value"]), float(rec["stderr"])
             v1 = float(now[name])
             if s > 0 and abs(v1 - v0) > se * s:
                 unit = "" if rec.get("unit") in (None, "1") else " " + rec["unit"]
@@ -417,7 +413,10 @@ def stability_review(meas: Measurement, findings, fit: FitResult, log_z: float, 
         except Exception as exc:  # noqa: BLE001 - a failed refit keeps the patch, flagged
             warn.append(words + f" (flagged, kept: the fit without it failed: {exc})")
             continue
-        loss = log_z - lz0 if math.isfinite(lz0) else math.inf
+        if not (math.isfinite(log_z) and math.isfinite(lz0)):
+            warn.append(words + " (flagged, kept: the evidence with or without it could not be computed)")
+            continue
+        loss = log_z - lz0
         need = PATCH_MARGIN * residual_correlation(meas, fit)
         if loss < need:
             warn.append(words + f"; without it the final model loses {loss:.1f} nats (< {need:.1f}, the "
