@@ -377,6 +377,11 @@ def run_forced_band_nulls(out: Path, n: int) -> dict:
     return done
 
 
+def _found_words(r) -> list[str]:
+    """The physics found, a narrow effect reported as a narrow resonance marked so."""
+    return [p + (" (narrow resonance)" if r.get("narrow_reported", {}).get(p) else "") for p in r["found"]]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="scripts/results/discovery")
@@ -448,7 +453,8 @@ def main(argv=None) -> int:
     for r in recs:
         lines.append(
             f"| {r['name']} | {r['truth']} | {r['start']} | {100 * r['noise']:.1f} % | "
-            f"{', '.join(r['expect']) or '-'} | {', '.join(r['found']) or '-'} | "
+            f"{', '.join(r['expect']) or '-'} | "
+            f"{', '.join(_found_words(r)) or '-'} | "
             f"{'yes' if r['right'] else 'NO'} | "
             f"{'yes' if r['band_overlap'] else 'NO'} | {r['seconds']:.0f} |"
         )

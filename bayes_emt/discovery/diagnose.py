@@ -9,8 +9,10 @@ still flagged then are ``unexplained``, each with its shape (:mod:`.shape`). The
 frozen :class:`Diagnosis` whose :meth:`~Diagnosis.to_json_dict` is the ``diagnose --json`` schema.
 
 Which candidate a band gets is :func:`.prefer.choose`: physical terms before generic patches (a
-patch needs determined parameters, a step its own discontinuity, and 10 nats over the best physical
-term), physical terms tried in pairs when none explains the band alone, terms impossible in the
+patch needs determined parameters, a step its own discontinuity, and the patch margin over the best
+physical term, :func:`.prefer.patch_margin`), physical terms tried in pairs when none explains the
+band alone or a patch leads, patches whose values move between rounds flagged or dropped
+(:func:`.prefer.stability_review`), terms impossible in the
 ``setup`` not tried (:mod:`.prefer`). A finding's band is where the term changes the fit beyond the
 noise (:func:`.prefer.change_band`), reported as broadband when wider than two decades.
 """
