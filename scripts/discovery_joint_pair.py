@@ -4,7 +4,7 @@ finding on the run with 0.100 kg added (``be.diagnose(..., also=[(B, 0.100)])``)
 One command::
 
     OMP_NUM_THREADS=1 .venv/bin/python scripts/discovery_joint_pair.py \
-        [--out scripts/results/discovery_realdata_margin] [--time-budget 240]
+        [--out scripts/results/discovery_realdata_margin] [--time-budget 240] [--reuse]
 
 Reads ../shared/realdata (the files are not in the repository) as
 :data:`bayes_emt.io.datasets.REALDATA_FILES` says (10 Hz-1 kHz), writes ``joint_pair.json`` (the
@@ -14,6 +14,7 @@ diagnosis with its ``joint`` record) and prints what the second recording says o
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import warnings
@@ -32,16 +33,27 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="scripts/results/discovery_realdata_margin")
     ap.add_argument("--time-budget", type=float, default=240.0, help="CPU s of the diagnosis (0: none)")
     ap.add_argument("--setup", default="free-air")
+    ap.add_argument("--reuse", action="store_true",
+                    help="take the diagnosis from --out/joint_pair.json and redo only the joint check")
     a = ap.parse_args(argv)
     if not REAL.is_dir():
         print(f"{REAL} is absent: nothing to do", file=sys.stderr)
         return 2
     base, loaded = (load_realdata(REAL, n) for n in PAIR[:2])
+    out = Path(a.out)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        d = be.diagnose(base, setup=a.setup, time_budget=a.time_budget or None, also=[(loaded, PAIR[2])],
-                        progress=lambda m: print("   ", m, flush=True))
-    out = Path(a.out)
+        if a.reuse:
+            from bayes_emt.discovery.diagnose import Diagnosis
+            from bayes_emt.discovery.joint import with_second_recordings
+
+            d = Diagnosis.from_json_dict(json.loads((out / "joint_pair.json").read_text()))
+            d = with_second_recordings(dataclasses.replace(
+                d, joint=(), warnings=tuple(w for w in d.warnings if "(joint evidence)" not in w)),
+                base, [(loaded, PAIR[2])])
+        else:
+            d = be.diagnose(base, setup=a.setup, time_budget=a.time_budget or None,
+                            also=[(loaded, PAIR[2])], progress=lambda m: print("   ", m, flush=True))
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "joint_pair.json", json.dumps(d.to_json_dict(), indent=1))
     print(d.headline())

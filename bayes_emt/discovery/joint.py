@@ -7,8 +7,9 @@ of one session is what B should not need, and is then flagged). :func:`check_wit
 final model and, for each finding, with that finding taken out (a term removed; for the eddy-current
 escalation, the coil model it replaced), from A's final values (``ω0`` moved to B's resonance). The
 finding's evidence gain on B is ``Δ log Z_B = log Z_B(final) − log Z_B(final without it)`` (the
-Laplace screen of :mod:`bayes_emt.evidence`; when it fails for the model without the term, far from
-B, that model's maximum log-likelihood stands in, as in :func:`.diagnose.diagnose`). A finding with
+Laplace screen of :mod:`bayes_emt.evidence`; when it fails on either side, both sides are taken by
+Schwarz's approximation, the maximum log-likelihood less ``½ k ln N``, and the record says
+``"method": "bic"``). A finding with
 ``Δ log Z_B <`` :data:`MIN_DELTA_LOG_Z` (the acceptance threshold of :mod:`.name`) is one only A
 needs: it is **flagged** (a warning). With ``Δm`` the joint added-mass fit
 (:func:`bayes_emt.added_mass.fit_added_mass`: one ``m, c, k, φ`` and one coil shared by both runs)
@@ -54,13 +55,19 @@ def model_without(diag, i: int) -> Model:
 
 
 def _fit(meas: Measurement, model: Model, start: dict) -> FitResult:
+    """The better (by χ²) of ``model``'s fits from ``start`` (when it names every parameter) and from
+    the automatic initial estimate: a start carried over from the other recording may sit in
+    another basin."""
     init = {k: v for k, v in start.items() if k in model.names}
-    if len(init) == len(model.names):
+    fits = []
+    for kw in ([{"initial": init}] if len(init) == len(model.names) else []) + [{}]:
         try:
-            return fit_admittance(meas, model, initial=init)
+            fits.append(fit_admittance(meas, model, **kw))
         except (FitError, ValueError):
-            pass
-    return fit_admittance(meas, model)
+            continue
+    if not fits:
+        raise FitError(f"{meas.source}: {model.label} could not be fitted")
+    return min(fits, key=lambda f: f.chi2)
 
 
 def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: Measurement | None = None
@@ -80,19 +87,28 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
     fb = _fit(other, final, start)
     lz = log_evidence(other, fb)
     start_b = fb.model.as_dict(fb.theta)
+    n_values = 2 * other.n_points
+
+    def bic(f: FitResult) -> float:  # Schwarz: max log-likelihood - k/2 ln N
+        return max_log_likelihood(other, f) - 0.5 * f.model.ndim * math.log(n_values)
+
+    method = "laplace" if math.isfinite(lz) else "bic"
     terms, flagged = [], []
     for i, f in enumerate(diag.findings):
         m0 = model_without(diag, i)
         try:
             f0 = _fit(other, m0, start_b)
-            lz0 = log_evidence(other, f0)
-            if not math.isfinite(lz0):  # a model far from B: its maximum log-likelihood stands in
-                lz0 = max_log_likelihood(other, f0)
+            lz0 = log_evidence(other, f0) if method == "laplace" else math.nan
+            how = method
+            if not math.isfinite(lz0):  # the Laplace screen failed: both sides by BIC
+                lz_with, lz0, how = bic(fb), bic(f0), "bic"
+            else:
+                lz_with = lz
         except (FitError, ValueError) as exc:
             terms.append({"physics": f.physics, "delta_log_evidence_other": None, "needed_by_other": None,
                           "model_without": m0.label, "note": f"the fit without it failed: {exc}"})
             continue
-        d = lz - lz0 if math.isfinite(lz) and math.isfinite(lz0) else float("nan")
+        d = lz_with - lz0 if math.isfinite(lz_with) and math.isfinite(lz0) else float("nan")
         needed = bool(d >= MIN_DELTA_LOG_Z) if math.isfinite(d) else None
         note = (f"{other.source} needs it too (log Z {d:+.1f} nats with it)" if needed
                 else f"{other.source} does not need it (log Z {d:+.1f} nats with it, < {MIN_DELTA_LOG_Z:g}): "
@@ -101,7 +117,7 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
         if needed is False:
             flagged.append(f.physics)
         terms.append({"physics": f.physics, "delta_log_evidence_other": d if math.isfinite(d) else None,
-                      "needed_by_other": needed, "model_without": m0.label, "note": note})
+                      "needed_by_other": needed, "model_without": m0.label, "note": note, "method": how})
     rec = {"source": str(other.source), "delta_m_kg": delta_m, "final_model": final.label,
            "rms_rel_residual_other": fb.rms_rel_residual,
            "log_z_final": lz if math.isfinite(lz) else None, "terms": terms, "flagged": flagged}
