@@ -407,13 +407,15 @@ def _joint_jobs(out: list[Candidate], current: FitResult) -> list[tuple[str, Fit
 
 def _masked_jobs(singles: list[Candidate], phys: list[Candidate], leader: Candidate) -> list:
     """When a patch leads (:mod:`.prefer`, "masked second effects"): the best physical term paired
-    with every other physical candidate however little it gains alone, and the leading patch with
-    the same partners (the same footing)."""
+    with the other physical candidates however little they gain alone (the best
+    :data:`JOINT_TOP` of them by Δ log Z), and the leading patch with the same partners (the same
+    footing)."""
     if not (leader.patch and phys) or "+" in leader.physics:
         return []
-    others = [c.physics for c in singles if not c.patch and c.implausible is None
-              and math.isfinite(c.delta_log_z) and c not in phys]
-    return [(f"{a.physics}+{b}", a.fit) for a in (phys[0], leader) for b in others]
+    others = sorted((c for c in singles if not c.patch and c.implausible is None
+                     and math.isfinite(c.delta_log_z) and c not in phys),
+                    key=lambda c: -c.delta_log_z)[:JOINT_TOP]
+    return [(f"{a.physics}+{b.physics}", a.fit) for a in (phys[0], leader) for b in others]
 
 
 #: an added parameter within this fraction of its prior's range (sampling space) from a bound sits
