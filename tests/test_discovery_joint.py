@@ -109,3 +109,11 @@ def test_diagnose_also_prints_the_joint_check_on_the_command_line(tmp_path, caps
     line = next(x for x in out.splitlines() if "joint added-mass fit, final" in x)
     m = float(line.split(" m ")[1].split(" kg")[0])
     assert m == pytest.approx(M, rel=0.05)
+
+
+def test_a_missing_second_recording_is_one_line_before_any_diagnosis(tmp_path, capsys):
+    a = simulate(parse_model_spec("I"), SPEAKER, GRID, noise=0.003, seed=1)
+    pa = write_measurement(a, tmp_path / "a.csv")
+    assert main(["diagnose", str(pa), "--also", str(tmp_path / "none.csv") + ":0.1", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "none.csv" in err[0]

@@ -95,6 +95,10 @@ def run(args) -> int:
     meas = read_measurement(
         args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit, quantity=args.quantity
     ).select(args.omega_min, args.omega_max)
+    # the second recordings are read before the diagnosis: a bad file fails at once
+    others = [(read_measurement(f, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
+                                quantity=args.quantity).select(args.omega_min, args.omega_max), dm)
+              for f, dm in also]
     model = model_from_args(args) if args.model else None
     if args.re is not None:  # a Normal prior on R0: the evidences of the candidates see the reading
         if model is None:
@@ -115,9 +119,6 @@ def run(args) -> int:
     if also:
         from ...discovery.joint import with_second_recordings
 
-        others = [(read_measurement(f, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
-                                    quantity=args.quantity).select(args.omega_min, args.omega_max), dm)
-                  for f, dm in also]
         d = with_second_recordings(d, meas.exclude_bands(args.exclude_band), others)
     print(
         f"{meas.source}: {meas.n_points} points, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz; "
