@@ -143,17 +143,28 @@ def compare(meas: Measurement | str | Path, models: Sequence[str | Model] = ("I"
 def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *,
              fit: FitResult | None = None, seed: int = 0, max_rounds: int = 4,
              time_budget: float | None = 240.0, setup: str = "unknown", exclude_band=None,
-             progress=None) -> Diagnosis:
+             progress=None, also=()) -> Diagnosis:
     """Locate where ``model`` (or ``fit``'s model, reusing that fit; neither: the base model the
     evidence prefers) and ``meas`` differ beyond the noise, name the catalogue physics that
     explains each band, and add it (:func:`~bayes_emt.discovery.diagnose.diagnose`).
     ``time_budget`` [CPU s] stops trying further candidates (``None``: no limit); ``setup``
     (``"free-air"``, ``"sealed"``, ``"vented"``, ``"shaker"``, ``"unknown"``) removes physics the
     setup cannot have (no port in free air); ``exclude_band=[(f1_hz, f2_hz), ...]`` leaves out a narrow
-    feature no lumped model explains."""
+    feature no lumped model explains. ``also=[(recording, delta_m_kg), ...]``: second recordings of the
+    same transducer (``delta_m_kg`` the mass added for it, ``None`` for the same driver at another
+    level or session); each finding is checked on them and one they do not need is flagged
+    (:func:`~bayes_emt.discovery.joint.check_with`, the diagnosis's ``joint`` records)."""
+    from .discovery.joint import with_second_recordings
+
     m = None if model is None else as_model(model)
-    return _diagnose(as_measurement(meas), m, fit=fit, seed=seed, max_rounds=max_rounds,
-                     time_budget=time_budget, setup=setup, exclude_band=exclude_band, progress=progress)
+    data = as_measurement(meas)
+    d = _diagnose(data, m, fit=fit, seed=seed, max_rounds=max_rounds,
+                  time_budget=time_budget, setup=setup, exclude_band=exclude_band, progress=progress)
+    pairs = [a if isinstance(a, tuple | list) else (a, None) for a in also]
+    if not pairs:
+        return d
+    return with_second_recordings(d, data.exclude_bands(exclude_band),
+                                  [(as_measurement(r), None if dm is None else float(dm)) for r, dm in pairs])
 
 
 def robust_shunt(posteriors: Posterior | Sequence[Posterior], *, weights: str | Sequence[float] = "evidence",

@@ -9,8 +9,10 @@ still flagged then are ``unexplained``, each with its shape (:mod:`.shape`). The
 frozen :class:`Diagnosis` whose :meth:`~Diagnosis.to_json_dict` is the ``diagnose --json`` schema.
 
 Which candidate a band gets is :func:`.prefer.choose`: physical terms before generic patches (a
-patch needs determined parameters, a step its own discontinuity, and 10 nats over the best physical
-term), physical terms tried in pairs when none explains the band alone, terms impossible in the
+patch needs determined parameters, a step its own discontinuity, and the patch margin over the best
+physical term, :func:`.prefer.patch_margin`), physical terms tried in pairs when none explains the
+band alone or a patch leads, patches whose values move between rounds flagged or dropped
+(:func:`.prefer.stability_review`), terms impossible in the
 ``setup`` not tried (:mod:`.prefer`). A finding's band is where the term changes the fit beyond the
 noise (:func:`.prefer.change_band`), reported as broadband when wider than two decades.
 """
@@ -35,8 +37,17 @@ from ..models import EDDY_PHYSICS, Model, parse_model_spec
 from ..models.derived import derived_values
 from .candidates import candidate_physics
 from .locate import ALPHA, Band, Location, locate_mismatch
-from .name import Candidate, CpuClock, FitCache, base_task, max_log_likelihood, portable, rank_candidates
-from .prefer import change_band, check_setup, choose, setup_excludes
+from .name import (
+    Candidate,
+    CpuClock,
+    FitCache,
+    base_task,
+    log_evidence,
+    max_log_likelihood,
+    portable,
+    rank_candidates,
+)
+from .prefer import change_band, check_setup, choose, narrow_mode_note, setup_excludes, stability_review
 from .shape import describe_shape, residual_shape
 
 __all__ = ["Finding", "Diagnosis", "diagnose", "preferred_base_model", "BASELINE_CANDIDATES"]
@@ -156,6 +167,8 @@ class Diagnosis(Record):
     seconds: float = 0.0
     final_location: Location | None = field(default=None, compare=False)
     baseline_location: Location | None = field(default=None, compare=False)
+    #: joint-evidence records against second recordings (:func:`.joint.check_with`)
+    joint: tuple[dict, ...] = ()
 
     kind = "diagnosis"
 
@@ -188,6 +201,7 @@ class Diagnosis(Record):
             "unexplained_detail": list(self.unexplained),
             "locations": list(self.locations),
             "tried": list(self.tried),
+            "joint": list(self.joint),
         }
 
     @classmethod
@@ -203,6 +217,7 @@ class Diagnosis(Record):
             tuple(d.get("tried", ())),
             tuple(d.get("warnings", ())),
             float(d.get("seconds", 0.0)),
+            joint=tuple(d.get("joint", ())),
         )
 
     # ---- what a person reads -------------------------------------------------------------------
@@ -624,7 +639,7 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
                     ],
                 }
             )
-            pick, notes = choose(ranked)
+            pick, notes = choose(ranked, meas)
             tried[-1]["choice"] = notes
             if deadline is not None and clock() > deadline:
                 warn.append(
@@ -678,7 +693,8 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
                 _explain(c, band, c.fit.model, moved)
                 + ("" if term is None or term.device else "; an instrument or session effect")
                 + (f"; {where['shape']}" if where["broadband"] else "")
-                + ("; a generic patch" if c.patch else ""),
+                + ("; a generic patch" if c.patch else "")
+                + (f"; {note}" if (note := narrow_mode_note(c.physics, c.fit)) else ""),
                 c.evidence_method,
                 c.evidence_note,
                 (located.lo, located.hi),
@@ -693,6 +709,10 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
             )
         say(findings[-1].explanation)
         fit, lz = c.fit, c.log_z
+    # issue 23: a patch whose values the rounds do not agree on is flagged, dropped when not needed
+    findings, fit, lz, stab = stability_review(meas, findings, fit, lz, lambda m, v: fit_admittance(
+        meas, m, initial=v), lambda f: log_evidence(meas, f))
+    warn.extend(stab)
     unexplained = []
     for band in unexplained_bands:
         shape = residual_shape(meas, fit.model, fit.theta, band)

@@ -585,16 +585,32 @@ def _joint_jobs(out: list[Candidate], current: FitResult) -> list[tuple[str, Fit
     phys = sorted((c for c in singles if not c.patch and c.implausible is None
                    and math.isfinite(c.delta_log_z) and c.delta_log_z > 0),
                   key=lambda c: -c.delta_log_z)[:JOINT_TOP]
-    if len(phys) < 2:
+    if not out:
         return []
     leader = max(out, key=lambda c: c.delta_log_z if math.isfinite(c.delta_log_z) else -math.inf)
+    if len(phys) < 2:
+        return _masked_jobs(singles, phys, leader)
     if any(c.accepted and not c.patch for c in out) and not leader.patch:
         return []
     jobs = []
     for i, a in enumerate(phys):
         for b in phys[i + 1:]:
             jobs.append((f"{a.physics}+{b.physics}", a.fit))
+    jobs += _masked_jobs(singles, phys, leader)
     return jobs
+
+
+def _masked_jobs(singles: list[Candidate], phys: list[Candidate], leader: Candidate) -> list:
+    """When a patch leads (:mod:`.prefer`, "masked second effects"): the best physical term paired
+    with the other physical candidates however little they gain alone (the best
+    :data:`JOINT_TOP` of them by Δ log Z), and the leading patch with the same partners (the same
+    footing)."""
+    if not (leader.patch and phys) or "+" in leader.physics:
+        return []
+    others = sorted((c for c in singles if not c.patch and c.implausible is None
+                     and math.isfinite(c.delta_log_z) and c not in phys),
+                    key=lambda c: -c.delta_log_z)[:JOINT_TOP]
+    return [(f"{a.physics}+{b.physics}", a.fit) for a in (phys[0], leader) for b in others]
 
 
 #: an added parameter within this fraction of its prior's range (sampling space) from a bound sits

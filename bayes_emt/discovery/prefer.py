@@ -12,8 +12,40 @@ extra coil section) and NL ring counts above the first rung of the eddy-current 
 * a mode term with :attr:`~bayes_emt.models.term.Term.narrow_when` is a patch only when broad (its
   fitted damping ratio at or above the limit); a narrow mode is physics;
 * a patch is chosen over the best *physical* candidate for the same band only when its
-  ``Δ log Z`` exceeds that candidate's by :data:`PATCH_MARGIN` nats. Within that margin the data do
-  not tell them apart and the physical one is kept (a warning says so).
+  ``Δ log Z`` exceeds that candidate's by the **patch margin** (:func:`patch_margin`). Within that
+  margin the data do not tell them apart and the physical one is kept (a warning says so);
+* a patch named in one round whose added parameters move, in a later round's fit, by more than
+  :data:`STABLE_SE` standard errors was absorbing what the later term explains: it is flagged, and
+  dropped when the final model without it loses less than its margin (:func:`stability_review`).
+
+**The patch margin grows with the record** (:func:`patch_margin`)::
+
+    margin = ℓ · max(PATCH_MARGIN, ½ Δk ln N),   ℓ = (1 + ρ₁)/(1 − ρ₁) ≥ 1
+
+with ``N`` the number of real data values (two per frequency), ``Δk`` the parameters the patch adds
+beyond the physical candidate's, and ``ρ₁`` the lag-1 autocorrelation of the patch fit's normalised
+residual over the points where it fits better than the physical candidate
+(:func:`change_band` of the one against the other). Two reasons, both about a real recording's many
+points. (i) ``½ ln N`` per extra parameter is the BIC price of a parameter (Schwarz 1978): the
+Laplace evidence charges a patch's broad priors once, while ``Δ log Z`` itself grows like ``N``
+times the per-point gain, so a fixed margin asks less and less of each point as the record grows;
+the floor :data:`PATCH_MARGIN` (10 nats) keeps what it was for short records. (ii) ``Δ log Z``
+counts every residual as independent. Where both candidates leave structured misfit (a real
+recording's 2-5 %, not the 0.2-0.5 % noise), neighbouring residuals are correlated and the
+likelihood overstates the information ``ℓ``-fold (the effective sample size of an AR(1) series,
+``N (1 − ρ₁)/(1 + ρ₁)``): the margin is asked in independent data. White residuals (a patch that is
+the truth) give ``ℓ ≈ 1``; a denser grid over the same structured misfit gives a larger ``ρ₁``, so the
+margin scales with the record length where the misfit is structured and stays near the floor where
+it is not.
+
+**Masked second effects.** When a patch leads a band, the best physical term is also paired with
+every other physical candidate (a creep under a coil misfit gains nothing alone while the coil
+misfit dominates the record), and the leading patch with the same partners, so the two compare on
+the same footing (:func:`bayes_emt.discovery.name.rank_candidates`).
+
+**A narrow mode** (a mode term with ``narrow_when`` fitted narrow) is physics, but a lumped driver
+model has no place for it: its finding reads "narrow resonance at f Hz, Q ≈ …" with the band to
+exclude when a lumped fit is wanted (:func:`narrow_mode_note`).
 
 **Setups** (:data:`SETUPS`): a term declaring :attr:`~bayes_emt.models.term.Term.requires_setup` is
 tried only in those setups (a port needs a vented box: never in free air, a sealed box or on a
@@ -54,6 +86,12 @@ __all__ = [
     "change_band",
     "BROADBAND_DECADES",
     "choose",
+    "patch_margin",
+    "residual_correlation",
+    "STABLE_SE",
+    "unstable_patch_values",
+    "stability_review",
+    "narrow_mode_note",
 ]
 
 SETUPS: tuple[str, ...] = ("free-air", "sealed", "vented", "shaker", "unknown")
@@ -63,6 +101,10 @@ SETUPS: tuple[str, ...] = ("free-air", "sealed", "vented", "shaker", "unknown")
 #: residual clears for almost any flexible term but that a patch clears over the physics only when
 #: the physics cannot explain the band (Kass & Raftery's ``2 ln B > 10`` "very strong" doubled)
 PATCH_MARGIN = 10.0
+#: the largest lag-1 autocorrelation :func:`residual_correlation` uses (ℓ ≤ 199)
+MAX_RHO = 0.99
+#: a patch's added parameter moving between rounds by more than this many standard errors is unstable
+STABLE_SE = 3.0
 #: nats within which two candidates of the same kind count as tied (Kass & Raftery: "not worth more
 #: than a bare mention"); the simpler one (fewer added parameters) is kept
 NEAR_TIE = 1.0
@@ -128,9 +170,12 @@ def _terms(physics: str, fit: FitResult):
 def is_patch(physics: str, fit: FitResult) -> bool:
     """A generic patch (module docstring): a ``generic`` term not made physical by a narrow fitted
     width, or an NL rung above the eddy-current escalation's first."""
-    if physics == EDDY_PHYSICS:
+    if EDDY_PHYSICS in physics.split("+"):
         rings = getattr(fit.model, "rings", None)
-        return rings is not None and rings > RING_COUNTS[0]
+        if rings is not None and rings > RING_COUNTS[0]:
+            return True
+        if physics == EDDY_PHYSICS:
+            return False
     values = fit.model.as_dict(fit.theta)
     for t in _terms(physics, fit):
         if not t.generic:
@@ -224,13 +269,49 @@ def change_band(meas: Measurement, before: FitResult, after: FitResult, sigma_re
             "shape": shape, "peak_hz": float(meas.f_hz[ipk])}
 
 
-def choose(ranked) -> tuple[object | None, list[str]]:
+def residual_correlation(meas: Measurement, fit: FitResult, i_lo: int = 0, i_hi: int | None = None) -> float:
+    """``ℓ = (1 + ρ₁)/(1 − ρ₁)`` (module docstring), ``ρ₁`` the lag-1 autocorrelation of ``fit``'s
+    relative residual over the points ``i_lo..i_hi`` (real and imaginary parts pooled, each part's
+    mean removed), clipped to ``[0, MAX_RHO]``; 1 with fewer than 8 points."""
+    i_hi = meas.n_points - 1 if i_hi is None else i_hi
+    if i_hi - i_lo + 1 < 8:
+        return 1.0
+    with np.errstate(all="ignore"):
+        r = relative_residual(fit.model, fit.theta, meas)[i_lo : i_hi + 1]
+    num = den = 0.0
+    for x in (r.real, r.imag):
+        x = x[np.isfinite(x)]
+        if x.size < 8:
+            continue
+        x = x - x.mean()
+        num += float(x[1:] @ x[:-1])
+        den += float(x @ x)
+    rho = min(max(num / den, 0.0), MAX_RHO) if den > 0 else 0.0
+    return (1.0 + rho) / (1.0 - rho)
+
+
+def patch_margin(patch, phys, meas: Measurement | None = None) -> tuple[float, str]:
+    """The nats by which candidate ``patch`` must beat the physical candidate ``phys`` (module
+    docstring: ``ℓ · max(PATCH_MARGIN, ½ Δk ln N)``) and how it was made up. Without ``meas``
+    ℓ = 1 (``N`` from the patch's fit)."""
+    n_values = 2 * int(patch.fit.n_points)
+    dk = max(patch.n_added - phys.n_added, 0)
+    base = max(PATCH_MARGIN, 0.5 * dk * math.log(max(n_values, 2)))
+    ell = 1.0
+    if meas is not None:
+        where = change_band(meas, phys.fit, patch.fit, 1.0)
+        ell = residual_correlation(meas, patch.fit, where["i_lo"], where["i_hi"])
+    words = f"{ell * base:.1f} nats = l {ell:.3g} x max({PATCH_MARGIN:g}, 1/2 x {dk} x ln {n_values})"
+    return ell * base, words
+
+
+def choose(ranked, meas: Measurement | None = None) -> tuple[object | None, list[str]]:
     """The candidate a band gets (module docstring) and the notes saying what was weighed: among the
     accepted, the best physical one (a joint pair only when it beats the best single by
     :data:`PATCH_MARGIN`; within :data:`NEAR_TIE` the one adding fewer parameters), unless a patch
-    beats it by :data:`PATCH_MARGIN` (or leads a physical one whose parameters the data do not
-    determine: an undetermined physical term is no better an explanation); a patch alone when no
-    physical candidate is accepted."""
+    beats it by the patch margin (:func:`patch_margin`; ``meas`` gives its residual correlation) or
+    leads a physical one whose parameters the data do not determine (an undetermined physical term
+    is no better an explanation); a patch alone when no physical candidate is accepted."""
     acc = [c for c in ranked if c.accepted]
     if not acc:
         return None, []
@@ -263,17 +344,105 @@ def choose(ranked) -> tuple[object | None, list[str]]:
             notes.append(f"{bp.physics} is a generic patch named because no physical term explains the band")
             return bp, notes
         lead = bp.delta_log_z - pick.delta_log_z
+        margin, how = patch_margin(bp, pick, meas) if lead > 0 else (PATCH_MARGIN, "")
         if lead > 0 and not pick.identifiable:
             notes.append(f"the patch {bp.physics} fits {lead:.1f} nats better than {pick.physics}, whose "
                          "parameters the data do not determine, while its own are determined: it is named")
             return bp, notes
-        if lead >= PATCH_MARGIN:
+        if lead >= margin:
             notes.append(f"the patch {bp.physics} beats the best physical term {pick.physics} by "
-                         f"{lead:.1f} nats (>= the margin {PATCH_MARGIN:g})")
+                         f"{lead:.1f} nats (>= the margin {how})")
             return bp, notes
         if lead > 0:
             notes.append(
                 f"the patch {bp.physics} fits {lead:.1f} nats better than {pick.physics}, within the "
-                f"{PATCH_MARGIN:g}-nat margin a patch needs: the data cannot tell them apart, the physical "
+                f"margin a patch needs ({how}): the data cannot tell them apart, the physical "
                 f"{pick.physics} is kept")
     return pick, notes
+
+
+def unstable_patch_values(findings, fit: FitResult, se: float = STABLE_SE) -> dict:
+    """``{physics: [words, ...]}`` of the patch findings (their explanation says "a generic patch")
+    whose added parameters, as named, differ in ``fit`` (a later round's) by more than ``se`` of the
+    standard errors they were named with (a parameter named without one is not judged). The later
+    fit's own standard error does not excuse the move: a patch value the later fit no longer
+    determines is the same symptom."""
+    now = fit.model.as_dict(fit.theta)
+    out: dict = {}
+    for f in findings:
+        if "a generic patch" not in f.explanation:
+            continue
+        for name, rec in (f.parameters.get("added") or {}).items():
+            if name not in now or rec.get("stderr") is None:
+                continue
+            v0, s = float(rec["value"]), float(rec["stderr"])
+            v1 = float(now[name])
+            if s > 0 and abs(v1 - v0) > se * s:
+                unit = "" if rec.get("unit") in (None, "1") else " " + rec["unit"]
+                out.setdefault(f.physics, []).append(
+                    f"{name} {v0:.4g} -> {v1:.4g}{unit} ({abs(v1 - v0) / s:.0f} standard errors)")
+    return out
+
+
+def stability_review(meas: Measurement, findings, fit: FitResult, log_z: float, refit, evidence):
+    """After the last round: every patch finding whose values moved since it was named
+    (:func:`unstable_patch_values`) is flagged; the final model without it is refitted
+    (``refit(model, start_values) -> FitResult``, ``evidence(fit) -> log Z``) and the patch is
+    dropped when the model loses less than :data:`PATCH_MARGIN` times the residual correlation ℓ of
+    the final fit (the patch margin without the parameter charge: a patch whose values the rounds
+    do not agree on must still be needed by the final model). An NL ring count has no term to drop:
+    it is flagged only. Returns ``(findings, fit, log_z, warnings)``."""
+    moved = unstable_patch_values(findings, fit)
+    warn: list[str] = []
+    findings = list(findings)
+    for physics, what in moved.items():
+        words = (f"{physics}: its values changed between rounds beyond {STABLE_SE:g} standard errors ("
+                 + "; ".join(what) + "): the patch absorbed what a later term explains")
+        ids = physics.split("+")
+        m_without = fit.model
+        for t in fit.model.augmentations:
+            if t.id in ids and t.generic:
+                m_without = m_without.without(t)
+        if m_without is fit.model:
+            warn.append(words + " (flagged; kept)")
+            continue
+        values = fit.model.as_dict(fit.theta)
+        try:
+            f0 = refit(m_without, {k: v for k, v in values.items() if k in m_without.names})
+            lz0 = evidence(f0)
+        except Exception as exc:  # noqa: BLE001 - a failed refit keeps the patch, flagged
+            warn.append(words + f" (flagged, kept: the fit without it failed: {exc})")
+            continue
+        if not (math.isfinite(log_z) and math.isfinite(lz0)):
+            warn.append(words + " (flagged, kept: the evidence with or without it could not be computed)")
+            continue
+        loss = log_z - lz0
+        need = PATCH_MARGIN * residual_correlation(meas, fit)
+        if loss < need:
+            warn.append(words + f"; without it the final model loses {loss:.1f} nats (< {need:.1f}, the "
+                        "patch margin): refused, dropped from the final model")
+            findings = [f for f in findings if f.physics != physics]
+            fit, log_z = f0, lz0
+        else:
+            warn.append(words + f"; the final model still needs it ({loss:.1f} nats >= {need:.1f}): kept, "
+                        "flagged")
+    return tuple(findings), fit, log_z, warn
+
+
+def narrow_mode_note(physics: str, fit: FitResult) -> str:
+    """For a finding of a mode term fitted narrow (``narrow_when``): "narrow resonance at f Hz, Q ≈ q"
+    with the band ``f (1 ± 1.5/Q)`` to exclude when a lumped fit is wanted; ``""`` otherwise."""
+    values = fit.model.as_dict(fit.theta)
+    for t in _terms(physics, fit):
+        if not t.narrow_when:
+            continue
+        name, limit = t.narrow_when
+        freq = next((p for p in t.params.names if p.startswith("omega")), None)
+        if name not in values or freq is None or not values[name] < limit:
+            continue
+        f, q = values[freq] / (2 * math.pi), 1.0 / (2.0 * values[name])
+        half = max(1.5 / q, 0.01)
+        return (f"a narrow resonance at {f:.4g} Hz, Q ≈ {q:.3g}: if it is a cone break-up or a surround "
+                "mode (an unmodelled narrow resonance of the lumped driver), exclude the band "
+                f"(--exclude-band {f * (1 - half):.4g}:{f * (1 + half):.4g}) rather than model it")
+    return ""

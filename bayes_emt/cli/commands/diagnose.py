@@ -33,7 +33,23 @@ bayes-emt diagnose speaker.zma --model UD --json diagnosis.json --plot figures/
 bayes-emt diagnose bench.csv --model NL --rings 5 --max-rounds 2 --quiet
 bayes-emt diagnose woofer.zma --setup free-air --exclude-band 5200:5600
 bayes-emt diagnose speaker.zma --model UD --time-budget 0  (no time budget: the same result on any machine)
+bayes-emt diagnose freeair.txt --also added100g.txt:0.100  (check the findings on an added-mass run)
 """
+
+
+def also_arg(text: str) -> tuple[str, float | None]:
+    """``FILE[:DELTA_M_KG]`` of ``--also``: the file and the mass added for it [kg] (``None``: the same
+    driver, another drive level or session)."""
+    head, sep, tail = text.rpartition(":")
+    if sep and head:
+        try:
+            dm = float(tail)
+        except ValueError:
+            return text, None
+        if not (dm == dm and abs(dm) != float("inf") and dm != 0):
+            raise ValueError(f"--also {text}: the added mass after ':' must be a non-zero number of kg")
+        return head, dm
+    return text, None
 
 
 def register(sub) -> None:
@@ -48,6 +64,11 @@ def register(sub) -> None:
                    help="how the transducer was mounted (default unknown): free-air, sealed and shaker rule "
                         "out a port; unknown tries a port only when |Z| has two maxima with a minimum "
                         "between them (each maximum >= 10 %% above it, within a factor 10 in frequency)")
+    p.add_argument("--also", action="append", default=[], metavar="FILE[:DELTA_M_KG]",
+                   help="a second recording of the same transducer (with the mass added for it, kg): every "
+                        "finding is refitted on it with and without the term; one it does not need "
+                        "(delta log Z < 5 nats) is flagged; with a mass the joint added-mass fit is run "
+                        "with the start and the final model (repeatable)")
     p.add_argument("--json", default=None, metavar="OUT", help="write the diagnosis as JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write residual and Bode figures here")
     p.add_argument("--seed", type=seed, default=0,
@@ -71,11 +92,16 @@ def run(args) -> int:
     from ..paths import check_outputs
     from ._common import model_from_args
 
-    check_outputs([("--json", args.json)], [("DATA", args.data)],
+    also = [also_arg(a) for a in args.also]
+    check_outputs([("--json", args.json)], [("DATA", args.data)] + [("--also", f) for f, _ in also],
                   folders=[("--plot", args.plot, ("residuals.png", "bode.png"))])
     meas = read_measurement(
         args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit, quantity=args.quantity
     ).select(args.omega_min, args.omega_max)
+    # the second recordings are read before the diagnosis: a bad file fails at once
+    others = [(read_measurement(f, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
+                                quantity=args.quantity).select(args.omega_min, args.omega_max), dm)
+              for f, dm in also]
     model = model_from_args(args) if args.model else None
     if args.re is not None:  # a Normal prior on R0: the evidences of the candidates see the reading
         if model is None:
@@ -94,6 +120,10 @@ def run(args) -> int:
         workers=args.workers,
         progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)),
     )
+    if also:
+        from ...discovery.joint import with_second_recordings
+
+        d = with_second_recordings(d, meas.exclude_bands(args.exclude_band), others)
     print(
         f"{meas.source}: {meas.n_points} points, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz; "
         f"{d.seconds:.0f} s"
@@ -110,6 +140,18 @@ def run(args) -> int:
         )
     for u in d.unexplained:
         print("unexplained: " + u["description"])
+    for j in d.joint:
+        dm = "" if j["delta_m_kg"] is None else f", {j['delta_m_kg']:g} kg added"
+        print(f"joint evidence with {j['source']}{dm}:")
+        for t in j["terms"]:
+            print(f"  {t['physics']}: {t['note']}")
+        for which, a in j.get("added_mass", {}).items():
+            if "error" in a:
+                print(f"  joint added-mass fit, {which} {a['model']}: failed ({a['error']})")
+                continue
+            print(f"  joint added-mass fit, {which} {a['model']}: m {a['m_kg']:.4g} kg, "
+                  f"Bl {a['Bl_N_per_A']:.4g} N/A, k {a['k_N_per_m']:.4g} N/m, R0 {a['R0_ohm']:.4g} ohm, "
+                  f"consistency p {a['consistency_p_value']:.3g}")
     for w in d.warnings:
         print("warning: " + w)
     if args.json:

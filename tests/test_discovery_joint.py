@@ -1,0 +1,119 @@
+"""Joint evidence (issue 23): the physics a diagnosis names must explain a second recording of the
+same transducer; a term only one recording needs is flagged (bayes_emt.discovery.joint)."""
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from bayes_emt.cli import main
+from bayes_emt.cli.commands.diagnose import also_arg
+from bayes_emt.discovery.diagnose import Diagnosis, Finding
+from bayes_emt.discovery.joint import check_with, model_without, with_second_recordings
+from bayes_emt.discovery.locate import Band
+from bayes_emt.estimation.fitting import fit_admittance
+from bayes_emt.io import write_measurement
+from bayes_emt.io.simulate import simulate
+from bayes_emt.models import parse_model_spec
+
+GRID = 2 * np.pi * np.geomspace(10.0, 2.0e4, 400)
+M, DM = 0.02, 0.01  # moving mass and the mass added for the second recording [kg]
+# a loudspeaker-like driver (scripts/discovery_benchmark.py): fs 45 Hz, Qms 5, Bl 7 N/A, Mms 20 g
+SPEAKER = {"zeta": 0.1, "omega0": 2 * np.pi * 45.0, "phi": 7.0 / math.sqrt(M), "R0": 6.0, "L0": 1.5e-4}
+SEMI = {"K_semi": 4e-3, "n_semi": 0.75}
+STEP = {"omegas": 2 * np.pi * 2000.0, "delta_s": 0.02, "psi_s": 0.02}
+
+
+def _loaded(vals):
+    """The driver with ``DM`` added: ω0, ζ and φ̄ = Bl/√m scale by √(m/(m + Δm)) (SPEC §3.4)."""
+    r = math.sqrt(M / (M + DM))
+    return {**vals, "omega0": vals["omega0"] * r, "zeta": vals["zeta"] * r, "phi": vals["phi"] * r}
+
+
+def _finding(physics, spec):
+    band = Band(GRID[0], GRID[-1], 0, GRID.size - 1, ("real", "imag"), 0.0, 0.0, GRID[200])
+    return Finding(physics, band, 100.0, 1.0, 1.0, True, "", True, {}, spec, physics + " explains ...")
+
+
+@pytest.fixture(scope="module")
+def pair():
+    """A: the semi-inductance coil and a 2 % instrument step at 2 kHz (a session effect); B: the same
+    driver with 10 g added, no step. A diagnosis of A that names both."""
+    final_model = parse_model_spec("I+semi_inductance+measurement_artifact")
+    a = simulate(final_model, {**SPEAKER, **SEMI, **STEP}, GRID, noise=0.003, seed=11, source="A")
+    b = simulate(parse_model_spec("I+semi_inductance"), _loaded({**SPEAKER, **SEMI}), GRID, noise=0.003,
+                 seed=12, source="B")
+    base = fit_admittance(a, parse_model_spec("I"))
+    final = fit_admittance(a, final_model, initial={**SPEAKER, **SEMI, **STEP})
+    diag = Diagnosis("A", base, final, (_finding("semi_inductance", "I+semi_inductance"),
+                                        _finding("measurement_artifact", final_model.label)), ())
+    return a, b, diag
+
+
+def test_a_term_both_recordings_need_passes_one_only_the_first_needs_is_flagged(pair):
+    a, b, diag = pair
+    rec = check_with(diag, b, DM, meas=a)
+    by = {t["physics"]: t for t in rec["terms"]}
+    assert by["semi_inductance"]["needed_by_other"] is True
+    assert by["semi_inductance"]["delta_log_evidence_other"] >= 5.0
+    assert by["measurement_artifact"]["needed_by_other"] is False
+    assert rec["flagged"] == ["measurement_artifact"]
+    assert by["measurement_artifact"]["model_without"] == "I+semi_inductance"
+    # the joint added-mass fit with the final model recovers the moving mass (20 g) within 10 %
+    am = rec["added_mass"]
+    assert set(am) == {"baseline", "final"}
+    assert am["final"]["m_kg"] == pytest.approx(M, rel=0.10)
+    # the step forced on B too: the pair does not share the final model (the F-test rejects it)
+    assert am["final"]["consistency_p_value"] < 1e-3
+
+
+def test_the_diagnosis_carries_the_joint_record_and_a_warning_per_flagged_term(pair):
+    a, b, diag = pair
+    out = with_second_recordings(diag, a, [(b, None)])  # the same driver: no added-mass fit
+    assert len(out.joint) == 1 and "added_mass" not in out.joint[0]
+    flagged = [w for w in out.warnings if "joint evidence" in w]
+    assert len(flagged) == 1 and flagged[0].startswith("measurement_artifact:")
+    assert "only one recording needs" in flagged[0]
+    back = Diagnosis.from_json_dict(out.to_json_dict())
+    assert back.joint == out.joint
+
+
+def test_taking_a_finding_out_removes_its_term_or_restores_the_coil_it_replaced():
+    final = parse_model_spec("NL(3)+suspension_creep")
+    diag = SimpleNamespace(
+        final_fit=SimpleNamespace(model=final), baseline_fit=SimpleNamespace(model=parse_model_spec("UD")),
+        findings=(SimpleNamespace(physics="eddy_current", model_spec="NL(3)"),
+                  SimpleNamespace(physics="suspension_creep", model_spec="NL(3)+suspension_creep")))
+    assert model_without(diag, 0).label == "UD+suspension_creep"
+    assert model_without(diag, 1).label == "NL(3)"
+
+
+def test_also_option_reads_file_and_added_mass():
+    assert also_arg("b.txt:0.1") == ("b.txt", 0.1)
+    assert also_arg("b.txt") == ("b.txt", None)
+    assert also_arg("C:/data/b.txt") == ("C:/data/b.txt", None)
+    with pytest.raises(ValueError, match="--also b.txt:0"):
+        also_arg("b.txt:0")
+
+
+def test_diagnose_also_prints_the_joint_check_on_the_command_line(tmp_path, capsys):
+    """Two recordings without a hidden effect: nothing to name, and the joint added-mass fit of the
+    start model is printed with its mass [kg]."""
+    a = simulate(parse_model_spec("I"), SPEAKER, GRID, noise=0.003, seed=1)
+    b = simulate(parse_model_spec("I"), _loaded(SPEAKER), GRID, noise=0.003, seed=2)
+    pa, pb = write_measurement(a, tmp_path / "a.csv"), write_measurement(b, tmp_path / "b.csv")
+    main(["diagnose", str(pa), "--model", "I", "--also", f"{pb}:{DM}", "--quiet"])
+    out = capsys.readouterr().out
+    assert f"joint evidence with {pb}" in out or "joint evidence with b.csv" in out
+    line = next(x for x in out.splitlines() if "joint added-mass fit, final" in x)
+    m = float(line.split(" m ")[1].split(" kg")[0])
+    assert m == pytest.approx(M, rel=0.05)
+
+
+def test_a_missing_second_recording_is_one_line_before_any_diagnosis(tmp_path, capsys):
+    a = simulate(parse_model_spec("I"), SPEAKER, GRID, noise=0.003, seed=1)
+    pa = write_measurement(a, tmp_path / "a.csv")
+    assert main(["diagnose", str(pa), "--also", str(tmp_path / "none.csv") + ":0.1", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "none.csv" in err[0]
