@@ -128,7 +128,7 @@ class Record:
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)
         if cls.__dict__.get("kind"):
-            _KINDS[cls.kind] = cls
+            register_kind(cls)
 
     def tables(self) -> list[Table]:  # pragma: no cover - every subclass overrides
         raise NotImplementedError

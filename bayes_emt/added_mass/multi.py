@@ -228,8 +228,7 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
             sez = np.sqrt(np.clip(np.diag(cov), 0, None))
             se = np.array([abs(xv) * s if spec.transform == "log" else s
                            for spec, xv, s in zip(jm.params, x, sez, strict=True)])
-            re_info.update({"sd_z": sd_z, "sensitivity_z": [float(t) for t in v],
-                            "sensitivity_per_ohm": [float(t) for t in per_ohm(v, sd_z, meter)]})
+            re_info.update({"sd_z": sd_z, "sensitivity_per_ohm": [float(t) for t in per_ohm(v, sd_z, meter)]})
     thetas = jm.thetas(x)
     chi2_joint = float(r @ r)
     chi2_s = sum(c / s**2 for c, s in zip(chi2_sep, noise, strict=True))
@@ -304,7 +303,7 @@ def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], mode
     Returns ``(draws (n, p_joint) [SI], info)`` with ``info``: ``converged``, ``message``,
     ``wall_time`` [s], ``n_draws``, ``tau_max``.
     """
-    from ..estimation.meter import move_draws
+    from ..estimation.meter import cut_rng, held_covariance, move_draws
     from ..inference.posterior import Posterior
     from ..inference.sampling import SamplerSettings, noise_start, run_ensemble, start_ball
 
@@ -316,21 +315,16 @@ def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], mode
 
     cut = None
     if meter is not None and meter.cut:
-        if not (fit.re or {}).get("sensitivity_z"):
+        if not (fit.re or {}).get("sensitivity_per_ohm"):
             raise ValueError("sample_multi_mass: a cut needs the cut fit (fit_multi_mass(..., re=meter))")
-        i0 = jm.names.index("R0")
-        cut = (i0, np.asarray(fit.re["sensitivity_z"], float), float(fit.re["sd_z"]),
-               np.asarray(fit.re["sensitivity_per_ohm"], float))
+        cut = (jm.names.index("R0"), np.asarray(fit.re["sensitivity_per_ohm"], float), float(fit.re["sd_z"]))
 
     def start(nwalkers):
         z0 = jm.params.to_z(fit.theta)
         cov = fit.cov_z if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)) else \
             np.diag((1e-3 * np.maximum(np.abs(z0), 1.0)) ** 2)
         if cut is not None and fit.cov_z is not None:  # given R0, R0 itself held sd·PIN wide
-            i0, v, sd_z, _ = cut
-            cov = np.array(cov, float) - sd_z**2 * np.outer(v, v)
-            cov[i0, :] = cov[:, i0] = 0.0
-            cov[i0, i0] = (meter.held_sd / meter.sd * sd_z) ** 2
+            cov = held_covariance(cov, *cut, meter)
         centre, spread = [], []
         for meas, rms in zip(runs, fit.rms_rel_residual, strict=True):
             c, s = noise_start(rms, float(np.min(np.abs(meas.Y))))
@@ -342,8 +336,7 @@ def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], mode
     post = Posterior.from_chain(lik, **run)
     draws = post.flat()[:, : len(jm.params)]
     if cut is not None:
-        draws = move_draws(draws, jm.params, cut[0], cut[3], meter,
-                           np.random.default_rng([int(seed), 0x0E7E]))
+        draws = move_draws(draws, jm.params, cut[0], cut[1], meter, cut_rng(seed))
     return draws, {"converged": bool(run["converged"]), "message": run["message"],
                    "wall_time": time.perf_counter() - t0, "n_draws": int(draws.shape[0]),
                    "tau_max": float(np.max(run["tau"]))}

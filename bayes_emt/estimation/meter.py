@@ -39,8 +39,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..params import Normal
+
 __all__ = ["Meter", "as_meter", "RE_MODES", "PIN", "CONFLICT_SD", "cut_covariance", "move_draws", "per_ohm",
-           "conflict_warning"]
+           "conflict_warning", "held_covariance", "cut_rng"]
 
 RE_MODES = ("cut", "prior")
 #: under the cut, ``R0`` is held at the reading with standard deviation ``sd·PIN``
@@ -78,16 +80,12 @@ class Meter:
         under the cut (``R0`` held at the reading), ``sd`` under ``"prior"``."""
         return self.sd * PIN if self.cut else self.sd
 
-    def prior(self):
+    def prior(self) -> Normal:
         """The Normal prior on ``R0`` the sampler uses (``held_sd`` wide)."""
-        from ..params import Normal
-
         return Normal(self.value, self.held_sd)
 
-    def reading_prior(self):
+    def reading_prior(self) -> Normal:
         """The reading itself as a Normal prior, ``N(value, sd)`` (what a cut posterior's record shows)."""
-        from ..params import Normal
-
         return Normal(self.value, self.sd)
 
     def sd_z(self, spec) -> float:
@@ -148,6 +146,25 @@ def conflict_warning(label: str, r0: float, sd_data: float, meter: Meter, dist: 
                        f"ohmmeter reads {meter.value:.5g} +/- {meter.sd:.2g} ohm, {dist:.1f} combined "
                        f"standard deviations apart: {held}. The model puts other physics into R0 (a missing "
                        "coil or mechanical term: try diagnose), or the reading includes the leads."}
+
+
+def held_covariance(cov_cut: np.ndarray, i: int, per_ohm_v: np.ndarray, sd_z: float,
+                    meter: Meter) -> np.ndarray:
+    """The sampler's start covariance when it samples with ``R0`` (index ``i``) held: the cut
+    covariance ``cov_cut`` (:func:`cut_covariance`) less the reading's variance carried along the
+    regression (``per_ohm_v`` per ohm, :func:`per_ohm`), with ``R0`` itself ``sd·PIN`` wide."""
+    v = np.asarray(per_ohm_v, float) * (meter.sd / sd_z)
+    v[i] = 1.0
+    cov = np.array(cov_cut, float) - sd_z**2 * np.outer(v, v)
+    cov[i, :] = 0.0
+    cov[:, i] = 0.0
+    cov[i, i] = (meter.held_sd / meter.sd * sd_z) ** 2
+    return 0.5 * (cov + cov.T)
+
+
+def cut_rng(seed: int) -> np.random.Generator:
+    """The stream the cut's draws of the reading come from: its own, derived from the run's seed."""
+    return np.random.default_rng([int(seed), 0x0E7E])
 
 
 def move_draws(x: np.ndarray, params, i: int, per_ohm: np.ndarray, meter: Meter,

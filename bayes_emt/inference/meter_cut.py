@@ -15,42 +15,33 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..estimation.meter import Meter, move_draws
+from ..estimation.meter import Meter, cut_rng, held_covariance, move_draws
 from ..estimation.results import FitResult
 from .posterior import Posterior
 
 __all__ = ["held_fit", "cut_posterior", "cut_regression", "sample_with_meter"]
 
 
-def cut_regression(fit: FitResult, n_params: int) -> tuple[int, np.ndarray, np.ndarray, float]:
-    """``(i, v, g, sd_z)`` of a cut fit (``fit_admittance(..., re=Meter(..., mode="cut"))``): the index
-    of ``R0``, each parameter's regression on it per unit of ``R0``'s sampling space (``v``) and per
-    ohm (``g``), both zero for the ``n_params − k`` noise parameters after the model's ``k``, and the
-    reading's sd in the fit's sampling space."""
+def cut_regression(fit: FitResult, n_params: int) -> tuple[int, np.ndarray, float]:
+    """``(i, g, sd_z)`` of a cut fit (``fit_admittance(..., re=Meter(..., mode="cut"))``): the index
+    of ``R0``, each parameter's regression on it per ohm (zero for the ``n_params − k`` noise
+    parameters after the model's ``k``) and the reading's sd in the fit's sampling space."""
     re = fit.info.get("re") or {}
     if re.get("mode") != "cut" or "sensitivity_per_ohm" not in re:
         raise ValueError("the fit was not made under an ohmmeter reading's cut (re=..., mode cut)")
     g = np.zeros(n_params)
     sens = np.asarray(re["sensitivity_per_ohm"], float)
     g[: sens.size] = sens
-    sd_z = float(re["sd_z"])
-    i = fit.model.names.index("R0")
-    meter_sd = float(re["sd"])
-    return i, g * meter_sd / sd_z, g, sd_z
+    return fit.model.names.index("R0"), g, float(re["sd_z"])
 
 
 def held_fit(fit: FitResult, meter: Meter) -> FitResult:
     """The cut fit with its covariance given ``R0`` (``R0`` itself ``sd·PIN`` wide): the sampler's
     start when it samples with ``R0`` held."""
-    i, v, _, sd_z = cut_regression(fit, fit.model.ndim)
+    i, g, sd_z = cut_regression(fit, fit.model.ndim)
     if fit.cov_z is None:
         return fit
-    held_z = meter.held_sd / meter.sd * sd_z
-    cov = np.array(fit.cov_z, float) - sd_z**2 * np.outer(v, v)
-    cov[i, :] = 0.0
-    cov[:, i] = 0.0
-    cov[i, i] = held_z**2
-    return replace(fit, cov_z=0.5 * (cov + cov.T))
+    return replace(fit, cov_z=held_covariance(fit.cov_z, i, g, sd_z, meter))
 
 
 def cut_posterior(post: Posterior, fit: FitResult, meter: Meter, seed: int) -> Posterior:
@@ -58,12 +49,12 @@ def cut_posterior(post: Posterior, fit: FitResult, meter: Meter, seed: int) -> P
     from ``N(value, sd)`` (its own stream from ``seed``) and every other parameter along the fit's
     regression on ``R0``."""
     lik = post.likelihood
-    i, _, g, _ = cut_regression(fit, len(lik.params))
+    i, g, _ = cut_regression(fit, len(lik.params))
     for j, (a, b) in enumerate(zip(fit.model.params, lik.params, strict=False)):
         if j != i and (a.name != b.name or a.transform != b.transform):
             raise ValueError(f"cut_posterior: the fit's {a.name} and the posterior's {b.name} differ in "
                              "name or sampling space")
-    moved = move_draws(post.draws, lik.params, i, g, meter, np.random.default_rng([int(seed), 0x0E7E]))
+    moved = move_draws(post.draws, lik.params, i, g, meter, cut_rng(seed))
     new_lik = replace(lik, model=lik.model.with_priors({"R0": meter.reading_prior()}, where="--re"))
     shape = moved.shape[:-1]
     lp, ll = new_lik.log_prob_z(new_lik.params.to_z(moved.reshape(-1, moved.shape[-1])))

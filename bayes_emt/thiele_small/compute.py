@@ -69,13 +69,14 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFormatError
+from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
 __all__ = ["thiele_small", "from_fit", "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES",
-           "parse_re", "SPREAD_MIN_PROBABILITY", "MODEL_SPREAD_METHOD", "undetermined",
+           "SPREAD_MIN_PROBABILITY", "MODEL_SPREAD_METHOD", "undetermined",
            "select_spread_models"]
 
 ADEQUATE_RMS_FACTOR = 1.5
@@ -100,14 +101,6 @@ def _ts_sampler():
 #: the sampler settings of a T/S posterior (a smaller ESS target than ``sample``'s 1000: quantiles
 #: of 5 % and 95 % from 400 effective draws move by about 0.1 posterior standard deviations)
 TS_SAMPLER = None  # built lazily by _ts_sampler (inference is imported on use)
-
-
-def parse_re(re, mode: str | None = None):
-    """``re`` as a :class:`~bayes_emt.estimation.meter.Meter` (ohms with a 1 % sd, ``(ohms, sd)``,
-    ``(ohms, sd, mode)``; mode ``"cut"`` by default), or ``None``."""
-    from ..estimation.meter import as_meter
-
-    return as_meter(re, mode)
 
 
 def _measurement(x, where: str, read_options: dict | None, f_range_hz, exclude_band=None) -> Measurement:
@@ -440,7 +433,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                     ("sound_speed", sound_speed)):
         if v is not None and not (math.isfinite(v) and v > 0):
             raise ValueError(f"{name} must be a positive number, got {v!r}")
-    re_t = parse_re(re)
+    re_t = as_meter(re)
     main = _model(model)
     meas = _measurement(data, "data", read_options, f_range_hz, exclude_band)
     lm = []

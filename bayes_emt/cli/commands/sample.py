@@ -174,7 +174,7 @@ def run(args) -> int:
     from ...inference.sampling import interruption
 
     try:
-        post = _sample(args, meas, loaded, model, fit, physical, common)
+        post = _sample(args, meas, loaded, model, fit, physical, common, meter)
         return _outputs(args, post, warns, out, ckpt, stem, plots)
     except KeyboardInterrupt as exc:  # a bare signal outside the sampler's steps: say what is kept
         if isinstance(exc, Interrupted) and exc.reported:
@@ -182,18 +182,16 @@ def run(args) -> int:
         raise interruption(exc, ckpt) from None
 
 
-def _sample(args, meas, loaded, model, fit, physical, common):
-    """The posterior of one recording, or the joint one of an added-mass pair."""
+def _sample(args, meas, loaded, model, fit, physical, common, meter=None):
+    """The posterior of one recording (under the ohmmeter reading ``meter``, if any), or the joint
+    one of an added-mass pair."""
     from ...inference.sampling import sample_posterior
 
     if loaded is None:
-        meter = fit.info.get("re") if fit is not None else None
-        if meter is not None and meter["mode"] == "cut":
-            from ...estimation.meter import Meter
+        if meter is not None:
             from ...inference.meter_cut import sample_with_meter
 
-            m = Meter(meter["value"], meter["sd"], "cut")
-            post = sample_with_meter(meas, model, m, fit=fit, **common)
+            post = sample_with_meter(meas, model, meter, fit=fit, **common)
         else:
             post = sample_posterior(meas, model, fit=fit, **common)
         print(f"model {model.label}, {meas.n_points} points, likelihood {post.likelihood.describe()}")
