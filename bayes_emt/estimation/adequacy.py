@@ -83,7 +83,8 @@ from ..measurement import Measurement
 from ..models import Model
 from ..models.residual import relative_residual
 
-__all__ = ["ResidualStructure", "residual_structure", "assess_fit", "RHO_CRIT", "Z_CRIT", "AT_BOUND_FRAC",
+__all__ = ["ResidualStructure", "residual_structure", "assess_fit", "edges_reached", "relative_sd",
+           "RHO_CRIT", "Z_CRIT", "AT_BOUND_FRAC",
            "Q_RANGE", "NOISE_FLOOR"]
 
 RHO_CRIT = 3.0  #: local residual rms, in units of the local noise, that counts as "far above"
@@ -225,18 +226,39 @@ def _physical(model: Model, meas: Measurement, theta: np.ndarray, noise: float, 
     return out
 
 
-def _at_bound(model: Model, z: np.ndarray, lo: np.ndarray, hi: np.ndarray, theta) -> list[str]:
+def edges_reached(params, z, lo, hi) -> list[tuple[int, str]]:
+    """``(index, "lower" | "upper")`` of each parameter of ``params`` whose sampling-space value ``z``
+    lies within :data:`AT_BOUND_FRAC` of its support's width ``[lo, hi]`` of an edge (finite
+    supports only): the rule of the ``parameter_at_bound`` warning."""
     out = []
-    for spec, zi, a, b, x in zip(model.params, z, lo, hi, theta, strict=True):
+    for i, (zi, a, b) in enumerate(zip(np.asarray(z, float), np.asarray(lo, float), np.asarray(hi, float),
+                                       strict=True)):
         width = b - a
         if not np.isfinite(width):
             continue
         edge = "lower" if zi - a <= AT_BOUND_FRAC * width else "upper" if b - zi <= AT_BOUND_FRAC * width \
             else None
         if edge:
-            d = spec.prior.to_dict()
-            support = f"{d.get('lower', float('nan')):g}..{d.get('upper', float('nan')):g}"
-            out.append(f"{spec.name} = {x:.4g} {spec.unit} ({edge} edge of {support} {spec.unit})")
+            out.append((i, edge))
+    return out
+
+
+def relative_sd(params, theta, cov_z) -> np.ndarray:
+    """Each parameter's standard error relative to its value (``sd(log x)`` for log parameters) from
+    the sampling-space covariance ``cov_z``: above 1 the data do not determine it (the rule of the
+    ``not_identifiable`` warning)."""
+    sd = np.sqrt(np.clip(np.diag(cov_z), 0, None))
+    return np.array([s if spec.transform == "log" else s / max(abs(x), np.finfo(float).tiny)
+                     for spec, x, s in zip(params, np.asarray(theta, float).ravel(), sd, strict=True)])
+
+
+def _at_bound(model: Model, z: np.ndarray, lo: np.ndarray, hi: np.ndarray, theta) -> list[str]:
+    out = []
+    for i, edge in edges_reached(model.params, z, lo, hi):
+        spec, x = model.params[i], theta[i]
+        d = spec.prior.to_dict()
+        support = f"{d.get('lower', float('nan')):g}..{d.get('upper', float('nan')):g}"
+        out.append(f"{spec.name} = {x:.4g} {spec.unit} ({edge} edge of {support} {spec.unit})")
     return out
 
 
@@ -252,8 +274,7 @@ def _unidentified(model: Model, theta, cov_z, jacobian) -> tuple[list[str], str]
         return names, "the Jacobian is rank-deficient (no standard errors)"
     sd = np.sqrt(np.clip(np.diag(cov_z), 0, None))
     names, worst = [], []
-    for spec, x, s in zip(model.params, theta, sd, strict=True):
-        rel = s if spec.transform == "log" else s / max(abs(x), np.finfo(float).tiny)
+    for spec, x, s, rel in zip(model.params, theta, sd, relative_sd(model.params, theta, cov_z), strict=True):
         if rel > 1:
             names.append(spec.name)
             se = abs(x) * s if spec.transform == "log" else s

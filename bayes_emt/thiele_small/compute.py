@@ -166,22 +166,14 @@ def undetermined(params, theta, cov_z) -> list[str]:
     :data:`~bayes_emt.estimation.adequacy.AT_BOUND_FRAC` of its prior support's width of an edge
     (sampling space). The rules of the fit's ``not_identifiable`` and ``parameter_at_bound``
     warnings, applied to any ParamSet (a joint added-mass vector too)."""
-    from ..estimation.adequacy import AT_BOUND_FRAC
+    from ..estimation.adequacy import edges_reached, relative_sd
 
     theta = np.asarray(theta, float).ravel()
     if cov_z is None or not np.all(np.isfinite(np.diag(cov_z))):
         return list(params.names)
-    sd = np.sqrt(np.clip(np.diag(cov_z), 0, None))
-    z = params.to_z(theta)
-    lo, hi = (np.asarray(b, float) for b in params.bounds_z())
-    out = []
-    for spec, x, zi, s, a, b in zip(params, theta, z, sd, lo, hi, strict=True):
-        rel = s if spec.transform == "log" else s / max(abs(x), np.finfo(float).tiny)
-        width = b - a
-        at_edge = math.isfinite(width) and min(zi - a, b - zi) <= AT_BOUND_FRAC * width
-        if rel > 1 or at_edge:
-            out.append(spec.name)
-    return out
+    flagged = set(np.flatnonzero(relative_sd(params, theta, cov_z) > 1).tolist())
+    flagged |= {i for i, _ in edges_reached(params, params.to_z(theta), *params.bounds_z())}
+    return [params[i].name for i in sorted(flagged)]
 
 
 def select_spread_models(records: list[dict]) -> list[dict]:
