@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ._record import read_record, record_from_dict
-from .discovery.diagnose import Diagnosis
+from .discovery.diagnose import SEARCH_PER_DECADE, Diagnosis
 from .discovery.diagnose import diagnose as _diagnose
 from .estimation.fitting import fit_admittance
 from .estimation.meter import as_meter
@@ -143,7 +143,7 @@ def compare(meas: Measurement | str | Path, models: Sequence[str | Model] = ("I"
 def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *,
              fit: FitResult | None = None, seed: int = 0, max_rounds: int = 4,
              time_budget: float | None = 240.0, setup: str = "unknown", exclude_band=None,
-             progress=None, also=()) -> Diagnosis:
+             progress=None, also=(), per_decade: float | None = SEARCH_PER_DECADE) -> Diagnosis:
     """Locate where ``model`` (or ``fit``'s model, reusing that fit; neither: the base model the
     evidence prefers) and ``meas`` differ beyond the noise, name the catalogue physics that
     explains each band, and add it (:func:`~bayes_emt.discovery.diagnose.diagnose`).
@@ -153,13 +153,15 @@ def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *
     feature no lumped model explains. ``also=[(recording, delta_m_kg), ...]``: second recordings of the
     same transducer (``delta_m_kg`` the mass added for it, ``None`` for the same driver at another
     level or session); each finding is checked on them and one they do not need is flagged
-    (:func:`~bayes_emt.discovery.joint.check_with`, the diagnosis's ``joint`` records)."""
+    (:func:`~bayes_emt.discovery.joint.check_with`, the diagnosis's ``joint`` records).
+    ``per_decade``: the search's point density (a denser sweep is thinned; ``None``: every point)."""
     from .discovery.joint import with_second_recordings
 
     m = None if model is None else as_model(model)
     data = as_measurement(meas)
     d = _diagnose(data, m, fit=fit, seed=seed, max_rounds=max_rounds,
-                  time_budget=time_budget, setup=setup, exclude_band=exclude_band, progress=progress)
+                  time_budget=time_budget, setup=setup, exclude_band=exclude_band, progress=progress,
+                  per_decade=per_decade)
     pairs = [a if isinstance(a, tuple | list) else (a, None) for a in also]
     if not pairs:
         return d

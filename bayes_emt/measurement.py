@@ -152,6 +152,31 @@ class Measurement:
         return replace(self, omega=self.omega[keep], Y=self.Y[keep], weights=w,
                        meta=MappingProxyType({**self.meta, "excluded_bands_hz": excl}))
 
+    def thin(self, per_decade: float | None) -> Measurement:
+        """At most ``per_decade`` points per decade of frequency: walking up from the first point, a
+        point is kept when it lies at least ``1/per_decade`` decade above the last one kept; the last
+        point is always kept. Where the recording is sparser than that (a log sweep of fewer points,
+        the low end of a linear sweep) every point stays; ``None`` or ``0``: ``self``. Deterministic.
+        ``meta["thinned_from"]`` records the number of points before when any was left out."""
+        if not per_decade:
+            return self
+        if not (math.isfinite(per_decade) and per_decade > 0):
+            raise ValueError(f"per_decade must be a positive number of points per decade, got {per_decade!r}")
+        step = math.log(10.0) / float(per_decade) * (1 - 1e-9)
+        lw = np.log(self.omega)
+        keep = [0]
+        for i in range(1, self.n_points - 1):
+            if lw[i] - lw[keep[-1]] >= step:
+                keep.append(i)
+        if self.n_points > 1:
+            keep.append(self.n_points - 1)
+        if len(keep) == self.n_points:
+            return self
+        idx = np.asarray(keep)
+        w = None if self.weights is None else self.weights[idx]
+        return replace(self, omega=self.omega[idx], Y=self.Y[idx], weights=w,
+                       meta=MappingProxyType({**self.meta, "thinned_from": self.n_points}))
+
     def with_meta(self, **meta: Any) -> Measurement:
         return replace(self, meta=MappingProxyType({**self.meta, **meta}))
 

@@ -65,6 +65,13 @@ DEFAULT_WORKERS = 2
 # paper's models put R0 4-9 % above a woofer's DC resistance when they absorb missing physics, and a
 # negative-resistance shunt cancels most of R0, so a move of this size changes its stability margin
 R0_MOVE_WARN = 0.05
+#: the search's point density [points per decade of frequency] (:meth:`Measurement.thin`): the
+#: catalogue's narrowest lumped feature (Q about 50, a band of 2 %) still gets four points at 200 per
+#: decade, and a narrow break-up of 5 % eleven, while a dense sweep (the LS10-44 run2 recordings:
+#: 1980 points at 0.5 Hz, about 1000 per decade at 1 kHz) costs five times the time for points whose
+#: residuals are nearly equal to their neighbours' (the misfit there is smooth, so the independent
+#: Gaussian noise the evidence assumes counts them as five times the information they hold)
+SEARCH_PER_DECADE = 200.0
 
 
 @dataclass(frozen=True)
@@ -169,6 +176,9 @@ class Diagnosis(Record):
     baseline_location: Location | None = field(default=None, compare=False)
     #: joint-evidence records against second recordings (:func:`.joint.check_with`)
     joint: tuple[dict, ...] = ()
+    #: the points the search used: ``{"n_points": recording's (after any excluded band), "used": the
+    #: search's, "per_decade": the thinning's cap or None}`` (:data:`SEARCH_PER_DECADE`)
+    search_points: dict = field(default_factory=dict)
 
     kind = "diagnosis"
 
@@ -202,6 +212,7 @@ class Diagnosis(Record):
             "locations": list(self.locations),
             "tried": list(self.tried),
             "joint": list(self.joint),
+            "search_points": dict(self.search_points),
         }
 
     @classmethod
@@ -218,6 +229,7 @@ class Diagnosis(Record):
             tuple(d.get("warnings", ())),
             float(d.get("seconds", 0.0)),
             joint=tuple(d.get("joint", ())),
+            search_points=dict(d.get("search_points") or {}),
         )
 
     # ---- what a person reads -------------------------------------------------------------------
@@ -246,6 +258,10 @@ class Diagnosis(Record):
             f"rms relative residual {100 * self.baseline_fit.rms_rel_residual:.4g} % ({self.baseline_model})"
             f" -> {100 * self.final_fit.rms_rel_residual:.4g} % ({self.final_model}); {self.seconds:.0f} s",
         )
+        sp = self.search_points
+        if sp and sp.get("used") != sp.get("n_points"):
+            notes += (f"searched on {sp['used']} of the {sp['n_points']} points (at most {sp['per_decade']:g} "
+                      "per decade of frequency); the fits, log Z and chi2 are of those points",)
         out = [
             Table(
                 f"{self.source}: discrepancy diagnosis",
@@ -498,6 +514,7 @@ def diagnose(
     exclude_band=None,
     workers: int | None = None,
     warm: bool = True,
+    per_decade: float | None = SEARCH_PER_DECADE,
 ) -> Diagnosis:
     """Locate, name and model what ``model`` leaves out of ``meas`` (module docstring).
 
@@ -529,9 +546,18 @@ def diagnose(
         within a factor 10 in frequency, each at least 10 % above the minimum between them).
     exclude_band : ``[(f1_hz, f2_hz), ...]``: points left out (:meth:`Measurement.exclude_bands`),
         e.g. a narrow cone break-up an earlier diagnosis reported as an unmodelled narrow resonance.
+    per_decade : the search runs on at most this many points per decade of frequency
+        (:meth:`Measurement.thin`, :data:`SEARCH_PER_DECADE`); ``None`` or ``0``: every point. The
+        fits, log Z and band χ² of the result are then of those points (``search_points`` says how
+        many); a ``fit`` of the whole recording is polished on them first.
     """
     check_setup(setup)
     meas = meas.exclude_bands(exclude_band)
+    n_all = meas.n_points
+    meas = meas.thin(per_decade)
+    if fit is not None and meas.n_points != n_all and fit.n_points == n_all:
+        fit = fit_admittance(meas, fit.model, initial=fit.theta, warm=True)
+    search_points = {"n_points": n_all, "used": meas.n_points, "per_decade": per_decade or None}
     t0 = time.perf_counter()
     clock = CpuClock()
     deadline = None if time_budget is None else clock() + time_budget
@@ -539,8 +565,9 @@ def diagnose(
     cache = FitCache()
     pool = _pool(workers)
     try:
-        return _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup, t0, clock,
-                         deadline, cache, pool, warm)
+        d = _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup, t0, clock,
+                      deadline, cache, pool, warm)
+        return dataclasses.replace(d, search_points=search_points)
     finally:
         if pool is not None:
             pool.shutdown(cancel_futures=True)

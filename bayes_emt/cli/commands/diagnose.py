@@ -81,6 +81,9 @@ def register(sub) -> None:
     p.add_argument("--workers", type=int_at_least(0), default=None, metavar="N",
                    help="processes fitting a band's candidates in parallel (default 2, at most one per core; "
                         "1: none; 0: one per core); the findings do not depend on it")
+    p.add_argument("--per-decade", type=nonnegative_float, default=None, metavar="N",
+                   help="search on at most N points per decade of frequency (default 200: a dense sweep is "
+                        "thinned, every point of a sparser one is kept); 0: every point")
     add_re_option(p)
     add_output_args(p)
     p.set_defaults(func=run)
@@ -119,13 +122,17 @@ def run(args) -> int:
         exclude_band=args.exclude_band,
         workers=args.workers,
         progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)),
+        **({} if args.per_decade is None else {"per_decade": args.per_decade or None}),
     )
     if also:
         from ...discovery.joint import with_second_recordings
 
         d = with_second_recordings(d, meas.exclude_bands(args.exclude_band), others)
+    sp = d.search_points
+    thinned = (f" (searched on {sp['used']}, at most {sp['per_decade']:g} per decade)"
+               if sp and sp.get("used") != sp.get("n_points") else "")
     print(
-        f"{meas.source}: {meas.n_points} points, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz; "
+        f"{meas.source}: {meas.n_points} points{thinned}, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz; "
         f"{d.seconds:.0f} s"
     )
     print(
