@@ -260,8 +260,9 @@ class Diagnosis(Record):
         )
         sp = self.search_points
         if sp and sp.get("used") != sp.get("n_points"):
-            notes += (f"searched on {sp['used']} of the {sp['n_points']} points (at most {sp['per_decade']:g} "
-                      "per decade of frequency); the fits, log Z and chi2 are of those points",)
+            notes += (f"searched on {sp['used']} of the {sp['n_points']} points (at most "
+                      f"{sp['per_decade']:g} per decade of frequency); the fits, log Z and chi2 are of "
+                      "those points",)
         out = [
             Table(
                 f"{self.source}: discrepancy diagnosis",
