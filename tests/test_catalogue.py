@@ -10,6 +10,7 @@ R0 + Rl is checked instead, and the term says so.
 """
 
 import json
+import math
 import pickle
 import warnings
 
@@ -206,3 +207,15 @@ def test_instrument_terms_stay_out_of_the_shunt_physics():
     aug = base.with_term(make_term("measurement_artifact")).bind(log_omega_grid())
     tha = np.r_[th, 30.0, 0.3, 0.2]  # a big step below the resonance: the measurement, not the device
     assert design_rc_shunt(aug, tha).Rs == pytest.approx(design_rc_shunt(base, th).Rs, abs=1e-9)
+
+
+def test_a_semi_inductance_that_takes_over_r0_is_not_that_physics():
+    """The term's ``implausible``: eddy-current coil loss is a few per cent of R0 at the driver's
+    resonance (the benchmark's coils: K = 4e-3 ohm s^0.75 at fs = 35 Hz is 0.5 %); the LS10-44 run2
+    added-mass diagnosis once fitted K = 0.84, n = 0.275 at fs = 31 Hz: 3.3 ohm, 61 % of R0."""
+    term = make_term("semi_inductance")
+    coil = {"R0": 6.0, "omega0": 2 * math.pi * 35.0, "K_semi": 4e-3, "n_semi": 0.75}
+    assert term.implausible(coil) is None
+    assert term.implausible({**coil, "K_semi": 0.02, "n_semi": 0.6}) is None
+    why = term.implausible({"R0": 5.33, "omega0": 197.5, "K_semi": 0.84, "n_semi": 0.275})
+    assert why is not None and "61 % of R0" in why
