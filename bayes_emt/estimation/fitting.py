@@ -340,11 +340,10 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         ``R0_data`` ± ``R0_data_sd`` and ``conflict_sd``; beyond 3 a ``re_conflict`` warning.
     warm : ``initial`` is a warm start (a fit of a nested model with the added parameters started
         by :func:`~bayes_emt.estimation.augment.augmentation_starts`, as the discrepancy search's
-        candidates are): the paper's steps 0-2, which only hand on a starting point, are skipped and
-        the polish runs from the start itself (step 0 minimises the polish's own objective, so from
-        a converging start the result is the same; ``final_start`` is ``"warm start"``). From such a
-        start the fit without ``warm`` ends in the same polish unless steps 1-2 reach a better
-        valley. Needs ``initial`` and ``polish``.
+        candidates are): the paper's steps 1-2, which only hand on a starting point, are skipped and
+        the polish runs from the end of step 0. From such a start the fit without ``warm`` ends in
+        the same polish from step 0 unless steps 1-2 reach a better valley. Needs ``initial`` and
+        ``polish``.
     reuse : ``{model label: FitResult}``: the nested fits the start-up needs (the model without its
         last augmentation; NL's UL surrogate) are taken from it when it holds the same fit
         (:func:`fit_reusing`), and added to it otherwise. The result does not depend on it.
@@ -407,15 +406,8 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     best = None
     rejected = []
     for i, theta0 in enumerate(starts):
-        if warm:
-            # a warm start is already the start-up's end: step 0 would minimise the polish's own
-            # objective (the same relative residuals, scaled) from the same point, so the polish
-            # runs from it directly (a converging fit ends at the same optimum; one that crawls
-            # along a flat valley to its budget gets one budget instead of two)
-            z = clip_inside(model.params.to_z(theta0), lo, hi)
-        else:
-            z, _ = run(model.params.to_z(theta0), wrel, all_free,
-                       f"0: start-up {i}, all parameters, relative residuals", **mid)
+        z, _ = run(model.params.to_z(theta0), wrel, all_free,
+                   f"0: start-up {i}, all parameters, relative residuals", **mid)
         c = final.cost(z)
         ok = plausible(z)
         if not ok:
@@ -427,9 +419,9 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
     info["path"] = (f"start {info['start_used']} ({labels[info['start_used']]}) of {len(starts)}, "
                     "steps 0-2")
     if warm:
-        info["path"] = f"warm start ({labels[0]})"
+        info["path"] = f"warm start ({labels[0]}), step 0"
         z = z0
-        info["final_start"] = "warm start"
+        info["final_start"] = "step 0"
     else:
         z, _ = run(z0, 1.0 / np.abs(s), all_free, "1: all parameters, W = 1/s", **mid)
         keep = np.isin(model.names, ("R0", "omega0"))
