@@ -51,35 +51,35 @@ def test_a_sparse_sweep_is_left_as_it_is_and_a_linear_one_keeps_its_low_end():
 
 def test_the_diagnosis_of_a_dense_sweep_runs_on_the_thinned_points_and_says_so():
     model = parse_model_spec("UD")
-    meas = simulate(model, PAPER_TABLES["UD"], np.geomspace(1e1, 1e5, 1200), noise=0.003, seed=11)
+    meas = simulate(model, PAPER_TABLES["UD"], np.geomspace(1e1, 1e5, 2000), noise=0.003, seed=11)
     d = diagnose(meas, model, max_rounds=1, workers=1)
     sp = d.search_points
-    assert sp["n_points"] == 1200 and sp["per_decade"] == SEARCH_PER_DECADE
-    assert sp["used"] == d.baseline_fit.n_points == d.final_fit.n_points < 1200
+    assert sp["n_points"] == 2000 and sp["per_decade"] == SEARCH_PER_DECADE
+    assert sp["used"] == d.baseline_fit.n_points == d.final_fit.n_points < 2000
     rec = json.loads(d.to_json())
     assert rec["search_points"] == sp and type(d).from_json_dict(rec).search_points == sp
     assert any("searched on" in n for t in d.tables() for n in t.notes)
     full = diagnose(meas, model, max_rounds=1, workers=1, per_decade=None)
-    assert full.search_points["used"] == 1200 == full.final_fit.n_points
+    assert full.search_points["used"] == 2000 == full.final_fit.n_points
 
 
 def test_a_fit_of_the_whole_recording_is_polished_on_the_search_points():
     from bayes_emt.estimation.fitting import fit_admittance
 
     model = parse_model_spec("UD")
-    meas = simulate(model, PAPER_TABLES["UD"], np.geomspace(1e1, 1e5, 1200), noise=0.003, seed=12)
+    meas = simulate(model, PAPER_TABLES["UD"], np.geomspace(1e1, 1e5, 2000), noise=0.003, seed=12)
     fit = fit_admittance(meas, model)
     d = diagnose(meas, fit=fit, max_rounds=1, workers=1)
-    assert d.baseline_fit.n_points == d.search_points["used"] < 1200
+    assert d.baseline_fit.n_points == d.search_points["used"] < 2000
     # the same physics on fewer points: the values agree within a few of the full fit's standard errors
     se = np.sqrt(np.diag(fit.cov_z))
     dz = np.abs(d.baseline_fit.z - fit.z)
-    assert np.all(dz <= 5 * se * math.sqrt(1200 / d.search_points["used"]))
+    assert np.all(dz <= 5 * se * math.sqrt(2000 / d.search_points["used"]))
 
 
 def test_the_command_line_takes_per_decade(tmp_path, capsys):
     model = parse_model_spec("UD")
-    meas = simulate(model, PAPER_TABLES["UD"], np.geomspace(1e1, 1e5, 1200), noise=0.003, seed=13)
+    meas = simulate(model, PAPER_TABLES["UD"], np.geomspace(1e1, 1e5, 2000), noise=0.003, seed=13)
     from bayes_emt.io import write_measurement
 
     data = tmp_path / "dense.csv"

@@ -65,13 +65,15 @@ DEFAULT_WORKERS = 2
 # paper's models put R0 4-9 % above a woofer's DC resistance when they absorb missing physics, and a
 # negative-resistance shunt cancels most of R0, so a move of this size changes its stability margin
 R0_MOVE_WARN = 0.05
-#: the search's point density [points per decade of frequency] (:meth:`Measurement.thin`): the
-#: catalogue's narrowest lumped feature (Q about 50, a band of 2 %) still gets four points at 200 per
-#: decade, and a narrow break-up of 5 % eleven, while a dense sweep (the LS10-44 run2 recordings:
-#: 1980 points at 0.5 Hz, about 1000 per decade at 1 kHz) costs five times the time for points whose
-#: residuals are nearly equal to their neighbours' (the misfit there is smooth, so the independent
-#: Gaussian noise the evidence assumes counts them as five times the information they hold)
-SEARCH_PER_DECADE = 200.0
+#: the search's point density [points per decade of frequency] (:meth:`Measurement.thin`), about
+#: 1/90 octave: a high-resolution log sweep (1/48-1/96 octave, 160-320 per decade) is searched whole,
+#: a linear FFT export is thinned where it is denser (the LS10-44 run2 recordings: 1980 points at
+#: 0.5 Hz, about 1000 per decade at 1 kHz, whose neighbouring residuals are nearly equal, cost five
+#: times the time). The catalogue's narrowest lumped feature (Q about 50, a band of 2 %) gets six
+#: points. At 200 per decade the truth-study recording (782 points, up to about 300 per decade)
+#: lost a close call (3 nats) between a semi-inductance and an NL ring and came out worse against its
+#: measured blocked impedance; at 300 and above it keeps the answer of all its points
+SEARCH_PER_DECADE = 300.0
 
 
 @dataclass(frozen=True)

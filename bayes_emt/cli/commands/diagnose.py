@@ -82,8 +82,9 @@ def register(sub) -> None:
                    help="processes fitting a band's candidates in parallel (default 2, at most one per core; "
                         "1: none; 0: one per core); the findings do not depend on it")
     p.add_argument("--per-decade", type=nonnegative_float, default=None, metavar="N",
-                   help="search on at most N points per decade of frequency (default 200: a dense sweep is "
-                        "thinned, every point of a sparser one is kept); 0: every point")
+                   help="search on at most N points per decade of frequency (default 300, about 1/90 "
+                        "octave: a dense sweep is thinned, every point of a sparser one is kept); 0: every "
+                        "point")
     add_re_option(p)
     add_output_args(p)
     p.set_defaults(func=run)
