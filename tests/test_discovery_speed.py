@@ -45,6 +45,22 @@ def test_warm_started_candidates_give_the_full_fits_decision(capacitance_case):
     assert pick_w.added["Cp"][0] == pytest.approx(pick_f.added["Cp"][0], rel=1e-3)
 
 
+def test_the_leaders_full_fit_replaces_a_warm_one_only_when_better_and_then_with_its_own_evidence(
+        capacitance_case):
+    """``_refine`` computes a full fit's log Z only when that fit beats its warm one: every kept
+    candidate's fit is the better of the two (chi2) and its log Z is that fit's."""
+    meas, fit, lz, band = capacitance_case
+    ids = ["winding_capacitance", "lead_impedance", "lr2"]
+    warm = {c.physics: c for c in rank_candidates(meas, fit, lz, band, 0.003, ids, warm=True, refine=0)}
+    full = {c.physics: c for c in rank_candidates(meas, fit, lz, band, 0.003, ids, warm=False)}
+    refined = rank_candidates(meas, fit, lz, band, 0.003, ids, warm=True, refine=2)
+    for c in refined:
+        if c.physics not in full or c.physics not in warm:
+            continue
+        assert c.fit.chi2 <= min(warm[c.physics].fit.chi2, full[c.physics].fit.chi2) * (1 + 1e-9)
+        assert c.log_z == pytest.approx(fit_log_evidence(meas, c.fit).log_z, abs=1e-6)
+
+
 def test_warm_fit_needs_its_start():
     meas = simulate(parse_model_spec("II"), PAPER_TABLES["II"], GRID, noise=0.003, seed=1)
     with pytest.raises(ValueError, match="warm"):

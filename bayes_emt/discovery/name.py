@@ -236,8 +236,8 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str,
 
 def fit_candidate(
     meas: Measurement, current: FitResult, physics: str, band: Band, *, warm: bool = True,
-    cache: dict | None = None,
-) -> list[tuple[FitResult, Evidence]]:
+    cache: dict | None = None, evidence: bool = True,
+) -> list[tuple[FitResult, Evidence | None]]:
     """``(fit, evidence)`` of ``physics`` added to ``current.model`` (module docstring); for
     the eddy-current escalation one per escalated coil model; for a joint ``"a+b"`` the second
     term added to the first's fit (``current`` is then that fit). Fits that fail are left out.
@@ -248,7 +248,9 @@ def fit_candidate(
     it each start runs the full fit. ``cache``: a :class:`FitCache` of ``meas``, read and filled: a
     coil model of the escalation (and the nested fits its start-up needs: NL's UL surrogate, the
     model without its last augmentation) is fitted once per diagnosis whatever the band or round;
-    the result does not depend on it (:func:`~bayes_emt.estimation.fitting.fit_reusing`)."""
+    the result does not depend on it (:func:`~bayes_emt.estimation.fitting.fit_reusing`).
+    ``evidence=False``: a catalogue term's best fit alone, ``[(fit, None)]`` (its evidence is
+    computed by whoever needs it: :func:`_refine` only for a fit that replaces its warm one)."""
     out = []
     if "+" in physics:
         physics = physics.split("+")[-1]
@@ -293,7 +295,7 @@ def fit_candidate(
                 distinct.append(f)
         return [(f, fit_log_evidence(meas, f)) for f in distinct]
     best = min(ok, key=lambda f: f.chi2)
-    return [(best, fit_log_evidence(meas, best))]
+    return [(best, fit_log_evidence(meas, best) if evidence else None)]
 
 
 class FitCache:
@@ -366,19 +368,20 @@ def base_task(meas_parts, name: str):
     return fit, ev, time.process_time() - t
 
 
-def _candidate_task(meas_parts, base, physics, band, warm, known):
+def _candidate_task(meas_parts, base, physics, band, warm, known, evidence=True):
     """One candidate in a worker process: ``(fits, CPU seconds, new cache entries)``."""
     t = time.process_time()
     omega, Y, w, meta = meas_parts
     cache = None if known is None else known.copy()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = fit_candidate(Measurement(omega, Y, w, meta), base, physics, band, warm=warm, cache=cache)
+        res = fit_candidate(Measurement(omega, Y, w, meta), base, physics, band, warm=warm, cache=cache,
+                            evidence=evidence)
     return res, time.process_time() - t, None if cache is None else cache.new_since(known)
 
 
 def fit_jobs(meas: Measurement, jobs, band: Band, *, warm: bool = True, cache: dict | None = None,
-             pool=None, clock=None, deadline: float | None = None):
+             pool=None, clock=None, deadline: float | None = None, evidence: bool = True):
     """``(physics, base, fits, seconds)`` of each job ``(physics, base)`` in the order given
     (:func:`fit_candidate`), lazily: a job is not started once ``clock()`` passes ``deadline``
     (``(physics, base, None, 0)`` then, and nothing after it). With ``pool`` (a
@@ -392,8 +395,8 @@ def fit_jobs(meas: Measurement, jobs, band: Band, *, warm: bool = True, cache: d
                 yield physics, base, None, 0.0
                 return
             t0 = time.perf_counter()
-            yield physics, base, fit_candidate(meas, base, physics, band, warm=warm, cache=cache), \
-                time.perf_counter() - t0
+            yield physics, base, fit_candidate(meas, base, physics, band, warm=warm, cache=cache,
+                                               evidence=evidence), time.perf_counter() - t0
         return
     if deadline is not None and clock() > deadline and jobs:
         yield jobs[0][0], jobs[0][1], None, 0.0
@@ -402,7 +405,7 @@ def fit_jobs(meas: Measurement, jobs, band: Band, *, warm: bool = True, cache: d
     order = sorted(range(len(jobs)), key=lambda i: jobs[i][0] != EDDY_PHYSICS)
     t0 = time.perf_counter()
     futures = {i: pool.submit(_candidate_task, parts, jobs[i][1], jobs[i][0], band, warm,
-                              cache if jobs[i][0] == EDDY_PHYSICS else None) for i in order}
+                              cache if jobs[i][0] == EDDY_PHYSICS else None, evidence) for i in order}
     for i, (physics, base) in enumerate(jobs):
         if deadline is not None and clock() > deadline:
             for f in futures.values():
@@ -504,13 +507,23 @@ def _refine(meas, current, band, sigma_rel, out, n, ctx, pool, clock, deadline) 
     progress = ctx[4]
     if top and progress:
         progress("  the leaders fitted the full way: " + ", ".join(c.physics for c in top))
+    # the full fits without their evidence: only one that beats its warm fit needs it (a full fit of
+    # no lower chi2 is dropped whatever its log Z), so that is computed for it alone
     for physics, _base, res, dt in fit_jobs(meas, [(c.physics, current) for c in top], band, warm=False,
-                                            pool=pool, clock=clock, deadline=deadline):
+                                            pool=pool, clock=clock, deadline=deadline, evidence=False):
         if res is None:
             break
-        new = _candidates(meas, current, band, sigma_rel, physics, res, dt, *ctx)
         old = best[physics]
-        if new and new[0].fit.chi2 < old.fit.chi2 * (1 - 1e-9):
+        better = [(f, ev) for f, ev in res if f.chi2 < old.fit.chi2 * (1 - 1e-9)]
+        if not better:
+            if progress and res:
+                progress(f"  {physics}: the full fit is no better (chi2 {min(f.chi2 for f, _ in res):.6g} "
+                         f"against {old.fit.chi2:.6g}; {dt:.0f} s): the warm one stays")
+            continue
+        res = better
+        res = [(f, fit_log_evidence(meas, f)) for f, _ev in res]
+        new = _candidates(meas, current, band, sigma_rel, physics, res, dt, *ctx)
+        if new:
             if progress:
                 progress(f"  {physics}: the full fit is better (chi2 {old.fit.chi2:.6g} -> "
                          f"{new[0].fit.chi2:.6g}, log Z {old.log_z:.1f} -> {new[0].log_z:.1f}): it replaces "
