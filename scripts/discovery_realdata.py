@@ -7,7 +7,8 @@ One command::
 
 Each recording (read and band-limited as :data:`bayes_emt.io.datasets.REALDATA_FILES` says) is
 diagnosed from the base model the evidence prefers; the findings, what stays unexplained, the rms
-relative residual before and after and how R0, Qms (= 1/(2ζ)), fs and φ̄ moved are written per
+relative residual before and after and how R0, Qms, fs (the Thiele-Small convention of
+:func:`bayes_emt.discovery.diagnose.moved_parameters`) and φ̄ moved are written per
 recording (``NAME.json``, reused on a re-run: resume) and in ``table.md``. For the LS10-44
 added-mass pair (0.100 kg added) the joint added-mass fit is run with the starting and the final
 model of the free-air run, giving how the physical mass m [kg] and force factor Bl [N/A] moved.
@@ -20,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 import time
@@ -30,6 +30,7 @@ from pathlib import Path
 from bayes_emt._atomic import atomic_write_text
 from bayes_emt.added_mass.fit import fit_added_mass
 from bayes_emt.discovery import diagnose
+from bayes_emt.discovery.diagnose import moved_parameters
 from bayes_emt.estimation.fitting import fit_admittance
 from bayes_emt.io.datasets import REALDATA_FILES, load_realdata
 from bayes_emt.models import parse_model_spec
@@ -66,13 +67,11 @@ def run_one(name: str, out: Path, setup: str = "unknown", time_budget: float | N
            "seconds_one_ud_fit": t_ud, "time_budget_cpu_s": time_budget, "workers": workers,
            "budget_hit": any("time budget" in w for w in d.warnings),
            "load_average_1min": os.getloadavg()[0], **d.details()}
-    moved = {}
-    for k in ("R0", "Qms", "fs_hz", "phi"):
-        a, b = d.baseline_fit.parameters, d.final_fit.parameters
-        va = 1 / (2 * a["zeta"]) if k == "Qms" else a["omega0"] / (2 * math.pi) if k == "fs_hz" else a[k]
-        vb = 1 / (2 * b["zeta"]) if k == "Qms" else b["omega0"] / (2 * math.pi) if k == "fs_hz" else b[k]
-        moved[k] = {"before": va, "after": vb, "relative_change": (vb - va) / va}
-    rec["moved"] = moved
+    # fs and Qms by the Thiele-Small convention (under creep: the mechanical impedance's resonance and
+    # all its loss there), as the diagnosis reports them
+    mv = moved_parameters(d.baseline_fit, d.final_fit)
+    rec["moved"] = {k: {x: mv[k][x] for x in ("before", "after", "relative_change")}
+                    for k in ("R0", "Qms", "fs_hz", "phi") if k in mv}
     atomic_write_text(path, json.dumps(rec, indent=1, default=float))
     return rec
 

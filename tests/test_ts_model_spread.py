@@ -181,3 +181,30 @@ def test_joint_and_paired_evidence_rank_the_true_model_first(method):
     assert models[spec]["log_evidence"] is not None and models[spec]["included"]
     assert not models["I"]["included"]
     assert models["I"]["probability"] is None or models["I"]["probability"] < SPREAD_MIN_PROBABILITY
+
+
+def test_the_diagnosis_reports_qms_and_fs_by_the_thiele_small_convention():
+    """Adding LOG creep moves ζ to the viscous part of the loss alone (the realdata table once showed
+    "Qms +706 %" for it); the diagnosis's moved fs and Qms are the mechanical impedance's resonance
+    and all its loss there (:func:`bayes_emt.models.derived.mechanical_resonance`), which the
+    added term barely moves, with standard errors through the fit's covariance."""
+    from bayes_emt.discovery.diagnose import _mechanics, moved_parameters
+    from bayes_emt.estimation.fitting import fit_admittance
+    from bayes_emt.thiele_small.simulate import simulate_driver
+
+    meas = simulate_driver("I+suspension_creep", deltas=(), n_points=400, seed=3).free
+    before = fit_admittance(meas, parse_model_spec("I"))
+    after = fit_admittance(meas, parse_model_spec("I+suspension_creep"))
+    raw_q = [1 / (2 * f.parameters["zeta"]) for f in (before, after)]
+    mv = moved_parameters(before, after)
+    # the raw 1/(2 zeta) jumps; the Thiele-Small Qms moves far less (both describe the same peak)
+    assert abs(raw_q[1] / raw_q[0] - 1) > 3 * abs(mv["Qms"]["relative_change"])
+    assert abs(mv["fs_hz"]["relative_change"]) < 0.02
+    # without creep the convention is omega0/2pi and 1/(2 zeta) exactly; the errors are finite
+    m = _mechanics(before, with_se=True)
+    assert m["Qms"][0] == pytest.approx(raw_q[0], rel=1e-12)
+    assert m["fs_hz"][0] == pytest.approx(before.parameters["omega0"] / (2 * math.pi), rel=1e-12)
+    assert all(math.isfinite(m[k][1]) and m[k][1] > 0 for k in ("Qms", "fs_hz"))
+    # the propagated Qms error without creep equals the closed form zeta_se / (2 zeta^2) within 1 %
+    z, zse = before.parameters["zeta"], before.stderr["zeta"]
+    assert m["Qms"][1] == pytest.approx(zse / (2 * z * z), rel=0.01)

@@ -34,7 +34,7 @@ from ..estimation.results import FitResult
 from ..evidence.fit_evidence import fit_log_evidence
 from ..measurement import Measurement
 from ..models import EDDY_PHYSICS, Model, parse_model_spec
-from ..models.derived import derived_values
+from ..models.derived import mechanical_resonance
 from .candidates import candidate_physics
 from .locate import ALPHA, Band, Location, locate_mismatch
 from .name import (
@@ -397,26 +397,38 @@ def _pool(workers: int | None):
     return ProcessPoolExecutor(max_workers=n, mp_context=ctx)
 
 
+def _resonance(model: Model, z: np.ndarray) -> np.ndarray:
+    """``(P, 2)``: fs [Hz] and Qms of sampling-space rows ``z (P, k)`` by the Thiele–Small convention
+    (:func:`~bayes_emt.models.derived.mechanical_resonance`: with suspension creep the resonance of
+    the whole mechanical impedance and all its loss there; otherwise ω0/2π and 1/(2ζ))."""
+    ws, qms, _ = mechanical_resonance(model, model.params.from_z(z))
+    return np.column_stack([ws / (2 * math.pi), qms])
+
+
 def _mechanics(fit: FitResult, with_se: bool = False) -> dict:
+    """R0, ζ, ω0, φ, and fs [Hz] and Qms by the Thiele–Small convention (so that adding creep, which
+    moves ζ to the viscous part of the loss alone, does not read as a jump of Qms); with ``with_se``
+    ``{name: (value, standard error)}``, fs's and Qms's propagated through the fit's covariance."""
     p = fit.parameters
     out = {k: p[k] for k in ("R0", "zeta", "omega0", "phi") if k in p}
-    d = derived_values(fit.model, fit.theta)
-    if "omega0" in p:
-        out["fs_hz"] = d["fs"]
-    if "zeta" in p:
-        out["Qms"] = d["Qms"]
+    res = "omega0" in p and "zeta" in p
+    if res:
+        out["fs_hz"], out["Qms"] = (float(v) for v in _resonance(fit.model, fit.z[None, :])[0])
     if not with_se:
         return out
     se = {}
     try:
-        raw = {k: float(fit.stderr[k]) for k in ("R0", "zeta", "omega0", "phi") if k in p}
+        se.update({k: float(fit.stderr[k]) for k in ("R0", "zeta", "omega0", "phi") if k in p})
     except (KeyError, TypeError, ValueError):
-        raw = {}
-    se.update(raw)
-    if "omega0" in raw:
-        se["fs_hz"] = raw["omega0"] / (2 * math.pi)
-    if "zeta" in raw and p["zeta"] > 0:
-        se["Qms"] = raw["zeta"] / (2 * p["zeta"] ** 2)
+        pass
+    if res and fit.cov_z is not None:
+        k = fit.z.size
+        h = 1e-6 * np.maximum(1.0, np.abs(fit.z))
+        rows = np.vstack([fit.z, fit.z + np.diag(h)])
+        v = _resonance(fit.model, rows)
+        grad = (v[1:] - v[0]) / h[:, None]  # (k, 2)
+        var = np.einsum("ia,ij,ja->a", grad, np.asarray(fit.cov_z, float).reshape(k, k), grad)
+        se["fs_hz"], se["Qms"] = (float(math.sqrt(x)) if x >= 0 else float("nan") for x in var)
     return {k: (v, se.get(k, float("nan"))) for k, v in out.items()}
 
 
@@ -426,7 +438,8 @@ MOVE_SE = 2.0
 
 def moved_parameters(before: FitResult, after: FitResult) -> dict:
     """``{name: {"before", "after", "relative_change", "stderr_before", "beyond_stderr"}}`` of the
-    plant parameters (R0, ζ, ω0, φ̄ and the derived fs [Hz], Qms = 1/(2ζ)) [SI]: ``beyond_stderr``
+    plant parameters (R0, ζ, ω0, φ̄ and fs [Hz] and Qms by the Thiele–Small convention,
+    :func:`_mechanics`) [SI]: ``beyond_stderr``
     when the move exceeds :data:`MOVE_SE` standard errors of the ``before`` fit (``None``: no
     standard error)."""
     a, b = _mechanics(before, with_se=True), _mechanics(after)

@@ -5,7 +5,10 @@ Each entry of :data:`DERIVED` is ``name → (unit, description, f(model, theta (
 vectorised over parameter sets; :func:`derived_values` evaluates them for one vector.
 ``fs = ω0/(2π)`` [Hz] and ``Qms = 1/(2ζ)`` [1] are the plant's own resonance and damping (SPEC §1);
 under a frequency-dependent compliance (suspension creep) they are the model's ω0 and ζ, not the
-Thiele–Small definitions at the impedance maximum.
+Thiele–Small definitions at the impedance maximum. Those are :func:`mechanical_resonance`'s: the
+resonance of the mechanical impedance with every stiffness term (``Im Zm(jωs) = 0``) and all its loss
+at ωs (the creep's as well as the viscous), the convention of the tools that fit LOG creep
+(:mod:`bayes_emt.thiele_small.relations` says whose); without such a term they are ω0 and 1/(2ζ).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import numpy as np
 
 from .model import Model
 
-__all__ = ["DERIVED", "derived_values", "coil_inductance_lf"]
+__all__ = ["DERIVED", "derived_values", "coil_inductance_lf", "mechanical_resonance"]
 
 
 def coil_inductance_lf(model: Model, theta: np.ndarray) -> np.ndarray:
@@ -49,3 +52,47 @@ def derived_values(model: Model, theta) -> dict[str, float]:
     """:data:`DERIVED` for one parameter vector ``theta (k,)`` [SI, units in :data:`DERIVED`]."""
     th = np.asarray(theta, float)[None, :]
     return {k: float(np.asarray(fn(model, th)).reshape(-1)[0]) for k, (_, _, fn) in DERIVED.items()}
+
+
+def _stiffness_factor(model: Model, theta: np.ndarray, omega: np.ndarray) -> np.ndarray | None:
+    """``κ(jω)`` (P,) of the model's stiffness terms at one ``ω`` per row (None: no such term)."""
+    terms = [(t, sl) for t, sl in zip(model.terms, model._slices, strict=True)
+             if t.device and t.stage == "stiffness"]
+    if not terms:
+        return None
+    other = {}
+    for t, _ in terms:
+        for n in t.needs:
+            i = model.params.index(n)
+            other[n] = theta[:, i : i + 1]
+    s = (1j * omega)[:, None]
+    kappa = np.ones((theta.shape[0], 1), complex)
+    for t, sl in terms:
+        kappa = kappa * t.evaluate(s, theta[:, sl], other)
+    return kappa[:, 0]
+
+
+def mechanical_resonance(model: Model, theta) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(ωs [rad/s], Qms, Qms_viscous)`` per row of ``theta (n, k)`` (module docstring)."""
+    theta = np.atleast_2d(np.asarray(theta, float))
+    zeta, w0 = (theta[:, model.params.index(n)] for n in ("zeta", "omega0"))
+    if _stiffness_factor(model, theta, w0) is None:
+        q = 1.0 / (2.0 * zeta)
+        return w0.copy(), q, q
+
+    def g(w):
+        return w * w - w0 * w0 * _stiffness_factor(model, theta, w).real
+
+    w = w0.copy()
+    for _ in range(60):  # Newton with a relative central-difference slope
+        h = 1e-6 * w
+        d = (g(w + h) - g(w - h)) / (2 * h)
+        step = np.where(d > 0, g(w) / np.where(d > 0, d, 1.0), 0.0)
+        w_new = np.clip(w - step, 0.3 * w0, 3.0 * w0)
+        if np.all(np.abs(w_new - w) <= 1e-13 * w0):
+            w = w_new
+            break
+        w = w_new
+    kap = _stiffness_factor(model, theta, w)
+    re_zm = 2 * zeta * w0 + w0 * w0 * kap.imag / w  # Re(Zm/Mms) [1/s]
+    return w, w / re_zm, w / (2 * zeta * w0)

@@ -39,6 +39,7 @@ import math
 import numpy as np
 
 from ..models import Model
+from ..models.derived import mechanical_resonance
 
 __all__ = ["UNITS", "DISPLAY", "NAMES", "mechanical_resonance", "free_air", "with_mass", "with_sd",
            "P_REF", "V_2_83"]
@@ -59,50 +60,6 @@ DISPLAY: dict[str, tuple[str, float]] = {
     "Qts": ("", 1.0), "Bl": ("T·m", 1.0), "Mms": ("g", 1e3), "Cms": ("mm/N", 1e3), "Kms": ("N/mm", 1e-3),
     "Rms": ("kg/s", 1.0), "Vas": ("L", 1e3), "eta0": ("%", 100.0), "SPL": ("dB", 1.0), "EBP": ("Hz", 1.0),
     "lambda_creep_decade": ("/decade", 1.0), "Qms_viscous": ("", 1.0)}
-
-
-def _stiffness_factor(model: Model, theta: np.ndarray, omega: np.ndarray) -> np.ndarray | None:
-    """``κ(jω)`` (P,) of the model's stiffness terms at one ``ω`` per row (None: no such term)."""
-    terms = [(t, sl) for t, sl in zip(model.terms, model._slices, strict=True)
-             if t.device and t.stage == "stiffness"]
-    if not terms:
-        return None
-    other = {}
-    for t, _ in terms:
-        for n in t.needs:
-            i = model.params.index(n)
-            other[n] = theta[:, i : i + 1]
-    s = (1j * omega)[:, None]
-    kappa = np.ones((theta.shape[0], 1), complex)
-    for t, sl in terms:
-        kappa = kappa * t.evaluate(s, theta[:, sl], other)
-    return kappa[:, 0]
-
-
-def mechanical_resonance(model: Model, theta) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(ωs [rad/s], Qms, Qms_viscous)`` per row of ``theta (n, k)`` (module docstring)."""
-    theta = np.atleast_2d(np.asarray(theta, float))
-    zeta, w0 = (theta[:, model.params.index(n)] for n in ("zeta", "omega0"))
-    if _stiffness_factor(model, theta, w0) is None:
-        q = 1.0 / (2.0 * zeta)
-        return w0.copy(), q, q
-
-    def g(w):
-        return w * w - w0 * w0 * _stiffness_factor(model, theta, w).real
-
-    w = w0.copy()
-    for _ in range(60):  # Newton with a relative central-difference slope
-        h = 1e-6 * w
-        d = (g(w + h) - g(w - h)) / (2 * h)
-        step = np.where(d > 0, g(w) / np.where(d > 0, d, 1.0), 0.0)
-        w_new = np.clip(w - step, 0.3 * w0, 3.0 * w0)
-        if np.all(np.abs(w_new - w) <= 1e-13 * w0):
-            w = w_new
-            break
-        w = w_new
-    kap = _stiffness_factor(model, theta, w)
-    re_zm = 2 * zeta * w0 + w0 * w0 * kap.imag / w  # Re(Zm/Mms) [1/s]
-    return w, w / re_zm, w / (2 * zeta * w0)
 
 
 def free_air(model: Model, theta) -> dict[str, np.ndarray]:
