@@ -520,8 +520,7 @@ def _refine(meas, current, band, sigma_rel, out, n, ctx, pool, clock, deadline) 
                 progress(f"  {physics}: the full fit is no better (chi2 {min(f.chi2 for f, _ in res):.6g} "
                          f"against {old.fit.chi2:.6g}; {dt:.0f} s): the warm one stays")
             continue
-        res = better
-        res = [(f, fit_log_evidence(meas, f)) for f, _ev in res]
+        res = [(f, fit_log_evidence(meas, f)) for f, _ev in better]
         new = _candidates(meas, current, band, sigma_rel, physics, res, dt, *ctx)
         if new:
             if progress:
