@@ -211,7 +211,7 @@ def test_instrument_terms_stay_out_of_the_shunt_physics():
 
 def test_a_semi_inductance_that_takes_over_r0_is_not_that_physics():
     """The term's ``implausible``: eddy-current coil loss is a few per cent of R0 at the driver's
-    resonance (the benchmark's coils: K = 4e-3 ohm s^0.75 at fs = 35 Hz is 0.5 %); the LS10-44 run2
+    resonance (a benchmark coil: K = 4e-3 ohm s^0.75 at fs = 35 Hz is 1.5 %); the LS10-44 run2
     added-mass diagnosis once fitted K = 0.84, n = 0.275 at fs = 31 Hz: 3.3 ohm, 61 % of R0."""
     term = make_term("semi_inductance")
     coil = {"R0": 6.0, "omega0": 2 * math.pi * 35.0, "K_semi": 4e-3, "n_semi": 0.75}

@@ -34,8 +34,9 @@ class SemiInductance(Term):
     #: the largest share of ``R0`` the term's resistance ``Re K (jω0)^n`` may have at the driver's
     #: resonance ω0: eddy-current loss grows from nothing at DC (Vanderkooy 1989: ``Z ∝ √(jω)`` in
     #: the pole's skin-effect limit, Leach 2002's ``n`` between that and an inductor's 1), so at the
-    #: mechanical resonance it is a few per cent of the DC resistance at most (the benchmark's and the
-    #: tests' coils: 0.1-2 %); a "semi-inductance" with ``n`` near 0 is a resistor doing R0's job
+    #: mechanical resonance it is a few per cent of the DC resistance (the benchmark's and the tests'
+    #: simulated coils 1.5-6 %, the truth-study woofer's fitted one 2.9 %); a "semi-inductance" with
+    #: ``n`` near 0 is a resistor doing R0's job
     MAX_R0_SHARE_AT_RESONANCE = 0.1
 
     def implausible(self, values):
