@@ -192,6 +192,16 @@ class Diagnosis(Record):
     def final_model(self) -> str:
         return self.final_fit.model.label
 
+    @property
+    def search_note(self) -> str:
+        """"searched on N of the M points (at most P per decade of frequency)" when the search was
+        thinned (:attr:`search_points`), else ``""``."""
+        sp = self.search_points
+        if not sp or sp.get("used") == sp.get("n_points"):
+            return ""
+        return (f"searched on {sp['used']} of the {sp['n_points']} points (at most {sp['per_decade']:g} "
+                "per decade of frequency)")
+
     def to_json_dict(self) -> dict:
         """The ``bayes-emt diagnose --json`` record (issue 13's schema)."""
         return {
@@ -260,11 +270,8 @@ class Diagnosis(Record):
             f"rms relative residual {100 * self.baseline_fit.rms_rel_residual:.4g} % ({self.baseline_model})"
             f" -> {100 * self.final_fit.rms_rel_residual:.4g} % ({self.final_model}); {self.seconds:.0f} s",
         )
-        sp = self.search_points
-        if sp and sp.get("used") != sp.get("n_points"):
-            notes += (f"searched on {sp['used']} of the {sp['n_points']} points (at most "
-                      f"{sp['per_decade']:g} per decade of frequency); the fits, log Z and chi2 are of "
-                      "those points",)
+        if self.search_note:
+            notes += (f"{self.search_note}; the fits, log Z and chi2 are of those points",)
         out = [
             Table(
                 f"{self.source}: discrepancy diagnosis",
@@ -412,8 +419,13 @@ def _mechanics(fit: FitResult, with_se: bool = False) -> dict:
     p = fit.parameters
     out = {k: p[k] for k in ("R0", "zeta", "omega0", "phi") if k in p}
     res = "omega0" in p and "zeta" in p
+    diff = res and with_se and fit.cov_z is not None
     if res:
-        out["fs_hz"], out["Qms"] = (float(v) for v in _resonance(fit.model, fit.z[None, :])[0])
+        # the fit's point, and with errors its forward-difference neighbours, in one evaluation
+        h = 1e-6 * np.maximum(1.0, np.abs(fit.z))
+        rows = np.vstack([fit.z, fit.z + np.diag(h)]) if diff else fit.z[None, :]
+        vals = _resonance(fit.model, rows)
+        out["fs_hz"], out["Qms"] = (float(x) for x in vals[0])
     if not with_se:
         return out
     se = {}
@@ -421,12 +433,9 @@ def _mechanics(fit: FitResult, with_se: bool = False) -> dict:
         se.update({k: float(fit.stderr[k]) for k in ("R0", "zeta", "omega0", "phi") if k in p})
     except (KeyError, TypeError, ValueError):
         pass
-    if res and fit.cov_z is not None:
+    if diff:
         k = fit.z.size
-        h = 1e-6 * np.maximum(1.0, np.abs(fit.z))
-        rows = np.vstack([fit.z, fit.z + np.diag(h)])
-        v = _resonance(fit.model, rows)
-        grad = (v[1:] - v[0]) / h[:, None]  # (k, 2)
+        grad = (vals[1:] - vals[0]) / h[:, None]  # (k, 2)
         var = np.einsum("ia,ij,ja->a", grad, np.asarray(fit.cov_z, float).reshape(k, k), grad)
         se["fs_hz"], se["Qms"] = (float(math.sqrt(x)) if x >= 0 else float("nan") for x in var)
     return {k: (v, se.get(k, float("nan"))) for k, v in out.items()}

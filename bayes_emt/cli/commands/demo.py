@@ -459,10 +459,8 @@ def _diagnose(d: _Demo, meas, model: str) -> None:
         d.failed("diagnose", exc, t)
         return
     d.step("diagnose", "ran", str(meas.source), time.perf_counter() - t)
-    sp = diag.search_points
-    if sp and sp.get("used") != sp.get("n_points"):
-        d.say(f"  searched on {sp['used']} of the {sp['n_points']} points (at most {sp['per_decade']:g} per "
-              "decade of frequency)")
+    if diag.search_note:
+        d.say(f"  {diag.search_note}")
     for f in diag.findings:
         d.say(f"  finding: {f.explanation}")
     if not diag.findings:

@@ -129,9 +129,7 @@ def run(args) -> int:
         from ...discovery.joint import with_second_recordings
 
         d = with_second_recordings(d, meas.exclude_bands(args.exclude_band), others)
-    sp = d.search_points
-    thinned = (f" (searched on {sp['used']}, at most {sp['per_decade']:g} per decade)"
-               if sp and sp.get("used") != sp.get("n_points") else "")
+    thinned = f"; {d.search_note}" if d.search_note else ""
     print(
         f"{meas.source}: {meas.n_points} points{thinned}, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz; "
         f"{d.seconds:.0f} s"
