@@ -219,3 +219,19 @@ def test_a_semi_inductance_that_takes_over_r0_is_not_that_physics():
     assert term.implausible({**coil, "K_semi": 0.02, "n_semi": 0.6}) is None
     why = term.implausible({"R0": 5.33, "omega0": 197.5, "K_semi": 0.84, "n_semi": 0.275})
     assert why is not None and "61 % of R0" in why
+
+
+def test_suspension_creep_on_the_imaginary_axis_is_the_log_creep_formula():
+    """The creep term's real-arithmetic path on ``s = jω`` is Knudsen & Jensen's
+    ``1/(1 + λ ln(ω0/s))`` (complex logarithm), within 1e-12 relative, for many parameter sets; off
+    the axis the formula itself is used."""
+    term = next(t for t in parse_model_spec("UD+suspension_creep").augmentations if t.id == "suspension_creep")
+    rng = np.random.default_rng(1)
+    omega = np.geomspace(2 * math.pi * 5, 2 * math.pi * 30e3, 300)
+    lam = rng.uniform(0.0, 0.5, (7, 1))
+    w0 = rng.uniform(2 * math.pi * 10, 2 * math.pi * 500, (7, 1))
+    for s in (1j * omega, -3.0 + 1j * omega):
+        got = term.evaluate(s, lam, {"omega0": w0})
+        want = 1.0 / (1.0 + lam * np.log(w0 / s))
+        assert got.shape == (7, omega.size)
+        assert np.max(np.abs(got - want) / np.abs(want)) < 1e-12

