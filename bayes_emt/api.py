@@ -143,7 +143,8 @@ def compare(meas: Measurement | str | Path, models: Sequence[str | Model] = ("I"
 def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *,
              fit: FitResult | None = None, seed: int = 0, max_rounds: int = 4,
              time_budget: float | None = 240.0, setup: str = "unknown", exclude_band=None,
-             progress=None, also=(), per_decade: float | None = SEARCH_PER_DECADE) -> Diagnosis:
+             progress=None, also=(), per_decade: float | None = SEARCH_PER_DECADE,
+             search_also: bool = True) -> Diagnosis:
     """Locate where ``model`` (or ``fit``'s model, reusing that fit; neither: the base model the
     evidence prefers) and ``meas`` differ beyond the noise, name the catalogue physics that
     explains each band, and add it (:func:`~bayes_emt.discovery.diagnose.diagnose`).
@@ -153,8 +154,11 @@ def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *
     feature no lumped model explains. ``also=[(recording, delta_m_kg), ...]``: second recordings of the
     same transducer (``delta_m_kg`` the mass added for it, ``None`` for the same driver at another
     level or session); each finding is checked on them and one they do not need is flagged
-    (:func:`~bayes_emt.discovery.joint.check_with`, the diagnosis's ``joint`` records).
-    ``per_decade``: the search's point density (a denser sweep is thinned; ``None``: every point)."""
+    (:func:`~bayes_emt.discovery.joint.check_with`, the diagnosis's ``joint`` records); with
+    ``search_also`` (default) each is diagnosed too with the same settings, and a term only it names is
+    fitted on ``meas`` and flagged when ``meas`` does not need it (:func:`~bayes_emt.discovery.joint.
+    search_other`; about doubles the time). ``per_decade``: the search's point density (a denser sweep
+    is thinned; ``None``: every point)."""
     from .discovery.joint import with_second_recordings
 
     m = None if model is None else as_model(model)
@@ -165,8 +169,11 @@ def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *
     pairs = [a if isinstance(a, tuple | list) else (a, None) for a in also]
     if not pairs:
         return d
+    search = dict(seed=seed, max_rounds=max_rounds, time_budget=time_budget, setup=setup,
+                  exclude_band=exclude_band, per_decade=per_decade) if search_also else None
     return with_second_recordings(d, data.exclude_bands(exclude_band),
-                                  [(as_measurement(r), None if dm is None else float(dm)) for r, dm in pairs])
+                                  [(as_measurement(r), None if dm is None else float(dm)) for r, dm in pairs],
+                                  search=search)
 
 
 def robust_shunt(posteriors: Posterior | Sequence[Posterior], *, weights: str | Sequence[float] = "evidence",

@@ -1,5 +1,6 @@
 """Joint evidence on the LS10-44 added-mass pair (issue 23): diagnose the free-air run, check each
-finding on the run with 0.100 kg added (``be.diagnose(..., also=[(B, 0.100)])``).
+finding on the run with 0.100 kg added (``be.diagnose(..., also=[(B, 0.100)])``), diagnose that run
+too and check each term only it names on the free-air run (:func:`bayes_emt.discovery.joint.search_other`).
 
 One command::
 
@@ -50,7 +51,8 @@ def main(argv=None) -> int:
             d = Diagnosis.from_json_dict(json.loads((out / "joint_pair.json").read_text()))
             d = with_second_recordings(dataclasses.replace(
                 d, joint=(), warnings=tuple(w for w in d.warnings if "(joint evidence)" not in w)),
-                base, [(loaded, PAIR[2])])
+                base, [(loaded, PAIR[2])],
+                search={"setup": a.setup, "time_budget": a.time_budget or None})
         else:
             d = be.diagnose(base, setup=a.setup, time_budget=a.time_budget or None,
                             also=[(loaded, PAIR[2])], progress=lambda m: print("   ", m, flush=True))
@@ -61,6 +63,12 @@ def main(argv=None) -> int:
         print(f"joint evidence with {j['source']} ({j['delta_m_kg']} kg added):")
         for t in j["terms"]:
             print(f"  {t['physics']}: {t['note']}")
+        if "search" in j:
+            sr = j["search"]
+            print(f"  its own diagnosis: {sr['baseline_model']} -> {sr['final_model']} "
+                  f"({', '.join(sr['findings'])})")
+            for t in sr["only_other"]:
+                print(f"  {t['physics']}: {t['note']}")
         for which, r in j.get("added_mass", {}).items():
             print(f"  joint added-mass fit, {which}: {json.dumps(r)}")
     for w in d.warnings:

@@ -98,8 +98,9 @@ def test_also_option_reads_file_and_added_mass():
 
 
 def test_diagnose_also_prints_the_joint_check_on_the_command_line(tmp_path, capsys):
-    """Two recordings without a hidden effect: nothing to name, and the joint added-mass fit of the
-    start model is printed with its mass [kg]."""
+    """Two recordings without a hidden effect: nothing to name, the joint added-mass fit of the
+    start model is printed with its mass [kg], and the second recording's own diagnosis (not with
+    ``--no-search-also``)."""
     a = simulate(parse_model_spec("I"), SPEAKER, GRID, noise=0.003, seed=1)
     b = simulate(parse_model_spec("I"), _loaded(SPEAKER), GRID, noise=0.003, seed=2)
     pa, pb = write_measurement(a, tmp_path / "a.csv"), write_measurement(b, tmp_path / "b.csv")
@@ -109,6 +110,11 @@ def test_diagnose_also_prints_the_joint_check_on_the_command_line(tmp_path, caps
     line = next(x for x in out.splitlines() if "joint added-mass fit, final" in x)
     m = float(line.split(" m ")[1].split(" kg")[0])
     assert m == pytest.approx(M, rel=0.05)
+    # the second recording is diagnosed too, from the same start: nothing to name there either
+    assert "its own diagnosis: I -> I (no finding" in out
+    main(["diagnose", str(pa), "--model", "I", "--also", f"{pb}:{DM}", "--quiet", "--no-search-also"])
+    out = capsys.readouterr().out
+    assert "joint added-mass fit, final" in out and "its own diagnosis" not in out
 
 
 def test_a_missing_second_recording_is_one_line_before_any_diagnosis(tmp_path, capsys):
@@ -117,3 +123,31 @@ def test_a_missing_second_recording_is_one_line_before_any_diagnosis(tmp_path, c
     assert main(["diagnose", str(pa), "--also", str(tmp_path / "none.csv") + ":0.1", "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "none.csv" in err[0]
+
+
+def test_searching_the_second_recording_flags_a_term_only_it_needs():
+    """The other way round (:func:`search_other`): A is the semi-inductance driver, B the same driver
+    with 10 g added and a 2 % instrument step at 2 kHz (a session effect of B). B's own diagnosis,
+    from A's starting model I, names the semi-inductance and the step; the semi-inductance is A's too,
+    so only the step is checked on A, where it gains less than 5 nats: flagged as a term only B
+    needs, with a warning."""
+    a = simulate(parse_model_spec("I+semi_inductance"), {**SPEAKER, **SEMI}, GRID, noise=0.003, seed=21,
+                 source="A")
+    b = simulate(parse_model_spec("I+semi_inductance+measurement_artifact"), _loaded({**SPEAKER, **SEMI, **STEP}),
+                 GRID, noise=0.003, seed=22, source="B")
+    base = fit_admittance(a, parse_model_spec("I"))
+    final = fit_admittance(a, parse_model_spec("I+semi_inductance"), initial={**SPEAKER, **SEMI})
+    diag = Diagnosis("A", base, final, (_finding("semi_inductance", "I+semi_inductance"),), ())
+    out = with_second_recordings(diag, a, [(b, DM)], search={"seed": 0, "time_budget": None})
+    sr = out.joint[0]["search"]
+    assert sr["baseline_model"] == "I"
+    assert "semi_inductance" in sr["findings"] and "measurement_artifact" in sr["findings"]
+    only = {t["physics"]: t for t in sr["only_other"]}
+    assert set(only) == {"measurement_artifact"}
+    assert only["measurement_artifact"]["needed_by_first"] is False
+    assert only["measurement_artifact"]["delta_log_evidence_first"] < 5.0
+    assert any(w.startswith("measurement_artifact:") and "only one recording needs" in w for w in out.warnings)
+    # A's own finding is needed by B, so nothing of A's is flagged
+    assert out.joint[0]["flagged"] == []
+    back = Diagnosis.from_json_dict(out.to_json_dict())
+    assert back.joint == out.joint

@@ -17,13 +17,24 @@ is run with A's baseline and final models; the record gives ``m``, ``Bl``, ``k``
 pair's consistency F-test for each, so one sees whether the named physics explains both recordings
 in one fit.
 
-A term B needs but A did not name is not looked for here: diagnose B for that.
+**The other way round** (:func:`search_other`, ``search``): B is diagnosed too, from A's starting
+model with A's settings, and each term B's diagnosis names that A's findings do not is added to A's
+final model and fitted on A (the same warm starts the search uses, in the band B found it). Its gain
+``Δ log Z_A`` decides: below :data:`MIN_DELTA_LOG_Z` it is a term only B needs (**flagged**, as the
+terms only A needs are); at or above it A gains from it too, and A's diagnosis did not name it (the
+search preferred another term within its margins, or ran out of rounds): a warning says so, since
+then A's findings are not the whole story (on the LS10-44 run2 pair the added-mass run names
+suspension creep, which the free-air run gains 69 nats from but its own search did not name). Named terms are compared by their physics ids (a joint
+``"a+b"`` finding counts as both; the eddy-current escalation as ``eddy_current`` whatever its ring
+count).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+
+import numpy as np
 
 from ..added_mass import fit_added_mass
 from ..errors import FitError
@@ -32,9 +43,11 @@ from ..estimation.fitting import fit_admittance
 from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import EDDY_PHYSICS, Model, parse_model_spec
-from .name import MIN_DELTA_LOG_Z, log_evidence, max_log_likelihood
+from .diagnose import diagnose
+from .locate import Band
+from .name import MIN_DELTA_LOG_Z, fit_candidate, log_evidence, max_log_likelihood
 
-__all__ = ["check_with", "with_second_recordings", "model_without"]
+__all__ = ["check_with", "with_second_recordings", "model_without", "search_other", "named_ids"]
 
 
 def model_without(diag, i: int) -> Model:
@@ -138,12 +151,73 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
     return rec
 
 
-def with_second_recordings(diag, meas: Measurement, also) -> object:
+def named_ids(diag) -> list[str]:
+    """The physics ids ``diag``'s findings name, in order, each once (``"a+b"`` gives ``a`` and ``b``)."""
+    out: list[str] = []
+    for f in diag.findings:
+        for i in f.physics.split("+"):
+            if i not in out:
+                out.append(i)
+    return out
+
+
+def search_other(diag, meas: Measurement, other: Measurement, **settings) -> dict:
+    """B (``other``) diagnosed from ``diag``'s starting model with ``settings`` (the keyword arguments
+    of :func:`~bayes_emt.discovery.diagnose.diagnose`: seed, setup, per_decade, time_budget, ...), and
+    each physics id it names that ``diag``'s findings do not, fitted on A (``meas``, thinned as
+    ``diag``'s search was) added to ``diag``'s final fit (module docstring). Returns ``{"final_model",
+    "baseline_model", "findings", "seconds", "budget_hit", "only_other": [{"physics",
+    "delta_log_evidence_first" [nats], "needed_by_first", "model", "note"}]}``."""
+    d_b = diagnose(other, diag.baseline_fit.model, **settings)
+    mine = set(named_ids(diag))
+    fit_a = diag.final_fit
+    a = meas.thin(diag.search_points.get("per_decade")) if diag.search_points else meas
+    if a.n_points != fit_a.n_points:  # the final fit is of other points: polish it on these
+        fit_a = fit_admittance(a, fit_a.model, initial=fit_a.theta, warm=True)
+    lz_a = log_evidence(a, fit_a)
+    only = []
+    for f in d_b.findings:
+        for pid in f.physics.split("+"):
+            if pid in mine or any(o["physics"] == pid for o in only):
+                continue
+            i_lo = int(np.searchsorted(a.omega, f.band.lo))
+            i_hi = max(i_lo, int(np.searchsorted(a.omega, f.band.hi, side="right")) - 1)
+            band = Band(f.band.lo, f.band.hi, min(i_lo, a.n_points - 1), min(i_hi, a.n_points - 1),
+                        f.band.parts, 0.0, 0.0, f.band.peak_omega)
+            res = [(c, ev) for c, ev in fit_candidate(a, fit_a, pid, band)
+                   if ev is not None and math.isfinite(ev.log_z)]
+            if not res or not math.isfinite(lz_a):
+                only.append({"physics": pid, "delta_log_evidence_first": None, "needed_by_first": None,
+                             "model": None, "note": f"{other.source} names it; its fit on {meas.source} "
+                             "or that fit's evidence failed"})
+                continue
+            best, ev = max(res, key=lambda r: r[1].log_z)
+            d = float(ev.log_z - lz_a)
+            needed = d >= MIN_DELTA_LOG_Z
+            note = (f"{other.source} names it and {meas.source} gains {d:+.1f} nats from it too: this "
+                    "diagnosis did not name it (its search chose other terms), so its findings are not the "
+                    "whole story" if needed else
+                    f"{other.source} names it and {meas.source} does not need it (log Z {d:+.1f} nats "
+                    f"with it, < {MIN_DELTA_LOG_Z:g}): a term only one recording needs")
+            only.append({"physics": pid, "delta_log_evidence_first": d, "needed_by_first": bool(needed),
+                         "model": best.model.label, "note": note})
+    return {"final_model": d_b.final_model, "baseline_model": d_b.baseline_model,
+            "findings": [f.physics for f in d_b.findings], "seconds": d_b.seconds,
+            "budget_hit": any("time budget" in w for w in d_b.warnings), "only_other": only}
+
+
+def with_second_recordings(diag, meas: Measurement, also, search: dict | None = None) -> object:
     """``diag`` with the joint-evidence records of ``also`` (``[(recording, delta_m_kg or None), ...]``)
-    in its ``joint`` field and a warning per flagged finding."""
+    in its ``joint`` field and a warning per flagged finding. ``search``: the settings with which each
+    second recording is diagnosed too (:func:`search_other`, its record under ``"search"``; a warning
+    per term only it names); ``None``: not searched."""
     recs, warn = [], list(diag.warnings)
     for other, dm in also:
         rec = check_with(diag, other, dm, meas=meas)
+        if search is not None:
+            rec["search"] = search_other(diag, meas, other, **search)
+            for t in rec["search"]["only_other"]:
+                warn.append(f"{t['physics']}: {t['note']} (joint evidence)")
         recs.append(rec)
         for t in rec["terms"]:
             if t["needed_by_other"] is False:

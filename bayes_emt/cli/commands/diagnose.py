@@ -68,7 +68,12 @@ def register(sub) -> None:
                    help="a second recording of the same transducer (with the mass added for it, kg): every "
                         "finding is refitted on it with and without the term; one it does not need "
                         "(delta log Z < 5 nats) is flagged; with a mass the joint added-mass fit is run "
-                        "with the start and the final model (repeatable)")
+                        "with the start and the final model; the recording is diagnosed too, and a term "
+                        "only it names is fitted on DATA and flagged when DATA does not need it "
+                        "(repeatable)")
+    p.add_argument("--no-search-also", action="store_true",
+                   help="do not diagnose the --also recordings (only check this diagnosis's findings "
+                        "on them)")
     p.add_argument("--json", default=None, metavar="OUT", help="write the diagnosis as JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write residual and Bode figures here")
     p.add_argument("--seed", type=seed, default=0,
@@ -128,7 +133,11 @@ def run(args) -> int:
     if also:
         from ...discovery.joint import with_second_recordings
 
-        d = with_second_recordings(d, meas.exclude_bands(args.exclude_band), others)
+        search = None if args.no_search_also else dict(
+            seed=args.seed, max_rounds=args.max_rounds, time_budget=args.time_budget or None,
+            setup=args.setup, exclude_band=args.exclude_band, workers=args.workers,
+            **({} if args.per_decade is None else {"per_decade": args.per_decade or None}))
+        d = with_second_recordings(d, meas.exclude_bands(args.exclude_band), others, search=search)
     thinned = f"; {d.search_note}" if d.search_note else ""
     print(
         f"{meas.source}: {meas.n_points} points{thinned}, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz; "
@@ -151,6 +160,12 @@ def run(args) -> int:
         print(f"joint evidence with {j['source']}{dm}:")
         for t in j["terms"]:
             print(f"  {t['physics']}: {t['note']}")
+        if "search" in j:
+            sr = j["search"]
+            print(f"  its own diagnosis: {sr['baseline_model']} -> {sr['final_model']} "
+                  f"({', '.join(sr['findings']) or 'no finding'}; {sr['seconds']:.0f} s)")
+            for t in sr["only_other"]:
+                print(f"  {t['physics']}: {t['note']}")
         for which, a in j.get("added_mass", {}).items():
             if "error" in a:
                 print(f"  joint added-mass fit, {which} {a['model']}: failed ({a['error']})")
