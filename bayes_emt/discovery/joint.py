@@ -21,12 +21,13 @@ in one fit.
 model with A's settings, and each term B's diagnosis names that A's findings do not is added to A's
 final model and fitted on A (the same warm starts the search uses, in the band B found it). Its gain
 ``Δ log Z_A`` decides: below :data:`MIN_DELTA_LOG_Z` it is a term only B needs (**flagged**, as the
-terms only A needs are); at or above it A gains from it too, and A's diagnosis did not name it (the
-search preferred another term within its margins, or ran out of rounds): a warning says so, since
-then A's findings are not the whole story (on the LS10-44 run2 pair the added-mass run names
-suspension creep, which the free-air run gains 69 nats from but its own search did not name). Named terms are compared by their physics ids (a joint
-``"a+b"`` finding counts as both; the eddy-current escalation as ``eddy_current`` whatever its ring
-count).
+terms only A needs are); at or above it A gains from it too, and A's diagnosis did not name it (its
+search chose other terms): a warning says so, since then A's findings are not the whole story. On
+the LS10-44 run2 pair (10 Hz-1 kHz) the added-mass run names suspension creep, which the free-air
+run gains 69 nats from but its own search did not name; over 1 Hz-1 kHz it names a broad second
+mode that the free-air run gains 0.4 nats from (flagged). Named terms are compared by their physics
+ids (a joint ``"a+b"`` finding counts as both; the eddy-current escalation as ``eddy_current``
+whatever its ring count).
 """
 
 from __future__ import annotations
@@ -168,6 +169,9 @@ def search_other(diag, meas: Measurement, other: Measurement, **settings) -> dic
     ``diag``'s search was) added to ``diag``'s final fit (module docstring). Returns ``{"final_model",
     "baseline_model", "findings", "seconds", "budget_hit", "only_other": [{"physics",
     "delta_log_evidence_first" [nats], "needed_by_first", "model", "note"}]}``."""
+    say = settings.get("progress")
+    if say:
+        say(f"the second recording {other.source}, diagnosed from {diag.baseline_fit.model.label}:")
     d_b = diagnose(other, diag.baseline_fit.model, **settings)
     mine = set(named_ids(diag))
     fit_a = diag.final_fit

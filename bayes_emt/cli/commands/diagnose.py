@@ -136,6 +136,7 @@ def run(args) -> int:
         search = None if args.no_search_also else dict(
             seed=args.seed, max_rounds=args.max_rounds, time_budget=args.time_budget or None,
             setup=args.setup, exclude_band=args.exclude_band, workers=args.workers,
+            progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)),
             **({} if args.per_decade is None else {"per_decade": args.per_decade or None}))
         d = with_second_recordings(d, meas.exclude_bands(args.exclude_band), others, search=search)
     thinned = f"; {d.search_note}" if d.search_note else ""
