@@ -151,3 +151,8 @@ def test_searching_the_second_recording_flags_a_term_only_it_needs():
     assert out.joint[0]["flagged"] == []
     back = Diagnosis.from_json_dict(out.to_json_dict())
     assert back.joint == out.joint
+    # the diagnosis's tables (report, text summary) carry the joint record both ways
+    table = next(t for t in out.tables() if "joint evidence" in t.title)
+    assert {(r[0], r[1], r[3]) for r in table.rows} == {("semi_inductance", "this", "yes"),
+                                                       ("measurement_artifact", "the other only", "no: flagged")}
+    assert "I -> " in table.notes[0]

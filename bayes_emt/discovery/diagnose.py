@@ -330,6 +330,8 @@ class Diagnosis(Record):
                     ),
                 )
             )
+        for j in self.joint:
+            out.append(_joint_table(self.source, j))
         if self.warnings:
             out.append(Table("warnings", ("message",), tuple((w,) for w in self.warnings)))
         return out
@@ -346,6 +348,26 @@ class Diagnosis(Record):
             "baseline_parameters": self.baseline_fit.parameters,
             "final_parameters": self.final_fit.parameters,
         }
+
+
+def _joint_table(source: str, j: dict) -> Table:
+    """One joint-evidence record (:mod:`.joint`) as a table: each term, which recording named it, the
+    other's log Z gain with it [nats], and whether both need it."""
+    needed = {True: "yes", False: "no: flagged"}
+    rows = tuple((t["physics"], "this", t["delta_log_evidence_other"], needed.get(t["needed_by_other"], "-"))
+                 for t in j["terms"])
+    notes = ()
+    if "search" in j:
+        sr = j["search"]
+        first = {True: "yes: this search did not name it", False: "no: flagged"}
+        rows += tuple((t["physics"], "the other only", t["delta_log_evidence_first"],
+                       first.get(t["needed_by_first"], "-")) for t in sr["only_other"])
+        notes = (f"the other recording diagnosed from the same start: {sr['baseline_model']} -> "
+                 f"{sr['final_model']} ({', '.join(sr['findings']) or 'no finding'}; {sr['seconds']:.0f} s)",)
+    dm = "" if j.get("delta_m_kg") is None else f", {j['delta_m_kg']:g} kg added"
+    return Table(f"{source}: joint evidence with {j['source']}{dm}",
+                 ("physics", "named by", "the other recording's delta log Z [nats]", "needed by both"),
+                 rows, notes)
 
 
 def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *, cache: FitCache | None = None,
