@@ -176,9 +176,13 @@ def search_other(diag, meas: Measurement, other: Measurement, **settings) -> dic
     mine = set(named_ids(diag))
     fit_a = diag.final_fit
     a = meas.thin(diag.search_points.get("per_decade")) if diag.search_points else meas
-    if a.n_points != fit_a.n_points:  # the final fit is of other points: polish it on these
-        fit_a = fit_admittance(a, fit_a.model, initial=fit_a.theta, warm=True)
-    lz_a = log_evidence(a, fit_a)
+    lz_a = math.nan
+    try:
+        if a.n_points != fit_a.n_points:  # the final fit is of other points: polish it on these
+            fit_a = fit_admittance(a, fit_a.model, initial=fit_a.theta, warm=True)
+        lz_a = log_evidence(a, fit_a)
+    except (FitError, ValueError):
+        pass  # every term only B names is then reported with its check on A failed
     only = []
     for f in d_b.findings:
         for pid in f.physics.split("+"):
@@ -188,9 +192,9 @@ def search_other(diag, meas: Measurement, other: Measurement, **settings) -> dic
             i_hi = max(i_lo, int(np.searchsorted(a.omega, f.band.hi, side="right")) - 1)
             band = Band(f.band.lo, f.band.hi, min(i_lo, a.n_points - 1), min(i_hi, a.n_points - 1),
                         f.band.parts, 0.0, 0.0, f.band.peak_omega)
-            res = [(c, ev) for c, ev in fit_candidate(a, fit_a, pid, band)
+            res = [(c, ev) for c, ev in (fit_candidate(a, fit_a, pid, band) if math.isfinite(lz_a) else [])
                    if ev is not None and math.isfinite(ev.log_z)]
-            if not res or not math.isfinite(lz_a):
+            if not res:
                 only.append({"physics": pid, "delta_log_evidence_first": None, "needed_by_first": None,
                              "model": None, "note": f"{other.source} names it; its fit on {meas.source} "
                              "or that fit's evidence failed"})
