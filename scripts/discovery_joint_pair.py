@@ -23,6 +23,7 @@ from pathlib import Path
 
 import bayes_emt as be
 from bayes_emt._atomic import atomic_write_text
+from bayes_emt._record import render_text
 from bayes_emt.io.datasets import load_realdata
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "realdata"
@@ -42,6 +43,10 @@ def main(argv=None) -> int:
         return 2
     base, loaded = (load_realdata(REAL, n) for n in PAIR[:2])
     out = Path(a.out)
+    if a.reuse and not (out / "joint_pair.json").is_file():
+        print(f"--reuse: {out / 'joint_pair.json'} does not exist (run once without --reuse)",
+              file=sys.stderr)
+        return 2
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if a.reuse:
@@ -59,16 +64,9 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "joint_pair.json", json.dumps(d.to_json_dict(), indent=1))
     print(d.headline())
+    # the joint-evidence tables of the diagnosis (both ways), then the joint added-mass fits
+    print(render_text([t for t in d.tables() if "joint evidence" in t.title]))
     for j in d.joint:
-        print(f"joint evidence with {j['source']} ({j['delta_m_kg']} kg added):")
-        for t in j["terms"]:
-            print(f"  {t['physics']}: {t['note']}")
-        if "search" in j:
-            sr = j["search"]
-            print(f"  its own diagnosis: {sr['baseline_model']} -> {sr['final_model']} "
-                  f"({', '.join(sr['findings'])})")
-            for t in sr["only_other"]:
-                print(f"  {t['physics']}: {t['note']}")
         for which, r in j.get("added_mass", {}).items():
             print(f"  joint added-mass fit, {which}: {json.dumps(r)}")
     for w in d.warnings:
