@@ -225,7 +225,8 @@ def test_suspension_creep_on_the_imaginary_axis_is_the_log_creep_formula():
     """The creep term's real-arithmetic path on ``s = jω`` is Knudsen & Jensen's
     ``1/(1 + λ ln(ω0/s))`` (complex logarithm), within 1e-12 relative, for many parameter sets; off
     the axis the formula itself is used."""
-    term = next(t for t in parse_model_spec("UD+suspension_creep").augmentations if t.id == "suspension_creep")
+    model = parse_model_spec("UD+suspension_creep")
+    term = next(t for t in model.augmentations if t.id == "suspension_creep")
     rng = np.random.default_rng(1)
     omega = np.geomspace(2 * math.pi * 5, 2 * math.pi * 30e3, 300)
     lam = rng.uniform(0.0, 0.5, (7, 1))

@@ -133,8 +133,8 @@ def test_searching_the_second_recording_flags_a_term_only_it_needs():
     needs, with a warning."""
     a = simulate(parse_model_spec("I+semi_inductance"), {**SPEAKER, **SEMI}, GRID, noise=0.003, seed=21,
                  source="A")
-    b = simulate(parse_model_spec("I+semi_inductance+measurement_artifact"), _loaded({**SPEAKER, **SEMI, **STEP}),
-                 GRID, noise=0.003, seed=22, source="B")
+    b = simulate(parse_model_spec("I+semi_inductance+measurement_artifact"),
+                 _loaded({**SPEAKER, **SEMI, **STEP}), GRID, noise=0.003, seed=22, source="B")
     base = fit_admittance(a, parse_model_spec("I"))
     final = fit_admittance(a, parse_model_spec("I+semi_inductance"), initial={**SPEAKER, **SEMI})
     diag = Diagnosis("A", base, final, (_finding("semi_inductance", "I+semi_inductance"),), ())
@@ -146,13 +146,14 @@ def test_searching_the_second_recording_flags_a_term_only_it_needs():
     assert set(only) == {"measurement_artifact"}
     assert only["measurement_artifact"]["needed_by_first"] is False
     assert only["measurement_artifact"]["delta_log_evidence_first"] < 5.0
-    assert any(w.startswith("measurement_artifact:") and "only one recording needs" in w for w in out.warnings)
+    assert any(w.startswith("measurement_artifact:") and "only one recording needs" in w
+               for w in out.warnings)
     # A's own finding is needed by B, so nothing of A's is flagged
     assert out.joint[0]["flagged"] == []
     back = Diagnosis.from_json_dict(out.to_json_dict())
     assert back.joint == out.joint
     # the diagnosis's tables (report, text summary) carry the joint record both ways
     table = next(t for t in out.tables() if "joint evidence" in t.title)
-    assert {(r[0], r[1], r[3]) for r in table.rows} == {("semi_inductance", "this", "yes"),
-                                                       ("measurement_artifact", "the other only", "no: flagged")}
+    assert {(r[0], r[1], r[3]) for r in table.rows} == {
+        ("semi_inductance", "this", "yes"), ("measurement_artifact", "the other only", "no: flagged")}
     assert "I -> " in table.notes[0]
