@@ -291,6 +291,39 @@ def _polish(plant: Plant, model: Model, theta, grid, rs, lcs, rnet, lcs_max, inf
     return rs, lcs
 
 
+#: relative step [of max(|threshold|, R0)] by which a design the search left on the unstable side of
+#: the exact threshold is moved onto the stable side (doubled until the loop is stable)
+BACKOFF = 1e-6
+#: a design closer than this (relative, as BACKOFF) to the exact threshold is reported "at the stability
+#: boundary"
+BACKOFF_NEAR = 1e-4
+
+
+def _stable_side(model, theta, rs, Cs, ev, plant, grid, bandwidth, info):
+    """``(Rs, evaluation)``: ``ev`` when stable; otherwise Rs moved just above the exact threshold.
+
+    The search constrains Rs by the threshold on its frequency grid (:func:`instability_threshold`
+    without refinement, for speed); the evaluation refines it. Where the optimum lies at the
+    boundary (more negative Rs keeps lowering the peak), the search can end between the two: on the
+    SEAS E0018 UD+suspension_creep fit 2.5e-8 ohm past the exact threshold, an unstable design. The
+    design returned is then the stable one closest to the boundary (its margin a hair, which the
+    margin check compares with the R0 uncertainty), and ``info["stability_backoff"]`` says so."""
+    if ev.stable or not math.isfinite(ev.Rs_instability):
+        return rs, ev
+    step = BACKOFF * max(abs(ev.Rs_instability), plant.R0)
+    for _ in range(20):
+        rs_b = ev.Rs_instability + step
+        ev_b = evaluate_rc_shunt(model, theta, rs_b, Cs, plant=plant, grid=grid, bandwidth=bandwidth)
+        if ev_b.stable:
+            info["stability_backoff"] = (f"the search ended {ev.Rs_instability - rs:.3g} ohm past the exact "
+                                         f"instability threshold; Rs moved to {step:.3g} ohm above it")
+            return rs_b, ev_b
+        step *= 2.0
+    info["stability_backoff"] = ("the search ended past the exact instability threshold; no stable Rs "
+                                 "found near it")
+    return rs, ev
+
+
 def _capacitive_threshold(model: Model, theta, grid) -> str | None:
     """The warning to give when the ideal loop's threshold is Rs = 0 from a capacitive terminal
     impedance at high frequency (a pole arriving from infinity), else ``None``."""
@@ -377,9 +410,20 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
                       bandwidth)
     Cs = math.exp(lcs)
     ev = evaluate_rc_shunt(model, theta, rs, Cs, plant=plant, grid=grid, bandwidth=bandwidth)
+    if not ev.stable:
+        rs, ev = _stable_side(model, theta, rs, Cs, ev, plant, grid, bandwidth, info)
+        if ev.stable:  # polish again from the stable side: an interior optimum may lie next to it
+            rs2, lcs2 = _polish(plant, model, theta, grid, rs, lcs, rnet, lcs_max, {}, bandwidth)
+            ev2 = evaluate_rc_shunt(model, theta, rs2, math.exp(lcs2), plant=plant, grid=grid,
+                                    bandwidth=bandwidth)
+            if ev2.stable and ev2.attenuation_db < ev.attenuation_db:
+                rs, lcs, Cs, ev = rs2, lcs2, math.exp(lcs2), ev2
+                info["stability_backoff"] += "; polished again from there"
     final = plant.local_peaks(lambda s: rc_impedance(s, rs, Cs))
     hs = sorted((p.value for p in final), reverse=True)
-    if lcs > lcs_max - 1e-3:
+    if ev.stability_margin < BACKOFF_NEAR * max(abs(ev.Rs_instability), plant.R0):
+        optimum = "at the stability boundary"
+    elif lcs > lcs_max - 1e-3:
         optimum = "Cs at its upper bound (a pure negative resistance does as well)"
     elif len(hs) > 1 and hs[1] > hs[0] * (1 - 1e-6):
         optimum = "equal peaks"
