@@ -225,3 +225,26 @@ def test_high_resistance_coil_of_a_geophone_fits():
     fit = fit_admittance(meas, model)
     for name, value in truth.items():
         assert abs(fit.parameters[name] - value) < 4 * fit.stderr[name], name
+
+
+def test_a_polish_that_runs_out_of_evaluations_is_continued_and_never_worse():
+    """``_Problem.polish``: a solve that ends at its budget (scipy status 0) is continued with unit
+    scaling for another budget; the result's cost is at most the first solve's, and ``nfev`` counts
+    both. A solve that converges is returned as it is."""
+    from bayes_emt.estimation.fitting import _Problem
+
+    model, truth = truth_of("UD", None, "UD")
+    meas = simulate(model, truth, noise=0.002, seed=3)
+    model = model.bind(meas.omega)
+    k = model.ndim
+    prob = _Problem(model, meas, 1.0 / np.abs(meas.Y), np.arange(k), np.zeros(k))
+    lo, hi = model.params.bounds_z()
+    z0 = model.params.to_z(truth * np.r_[1.3, 0.9, 1.1, 1.05, np.ones(k - 4) * 1.2])
+    short = prob.solve(z0, lo, hi, max_nfev=4)
+    assert short.status == 0
+    pol = prob.polish(z0, lo, hi, max_nfev=4)
+    assert pol.cost <= short.cost and pol.nfev > short.nfev
+    full = prob.solve(z0, lo, hi, max_nfev=25 * k)
+    assert full.status != 0
+    again = prob.polish(z0, lo, hi, max_nfev=25 * k)
+    assert again.cost == pytest.approx(full.cost, rel=1e-12) and again.nfev == full.nfev

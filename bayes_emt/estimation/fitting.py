@@ -151,10 +151,11 @@ class _Problem:
         end with unit scaling in sampling space for another budget, and the lower cost kept.
 
         Scaling by the Jacobian's column norms (``x_scale="jac"``) crawls along some valleys: on a
-        real woofer (koan_mid) the UD+semi_inductance polish used its 225 evaluations and stopped
-        0.3-1.4 % above the minimum, which unit scaling reached in 60-140 (the same minimum as four
-        times the budget with the Jacobian's scaling). On the NL ring fits neither scaling is
-        better, so unit scaling only continues a polish that ran out. ``nfev`` is the sum."""
+        real woofer (koan_mid) the UD+semi_inductance polishes used their 225 evaluations and
+        stopped up to 1.4 % (in cost) above the minimum, which unit scaling reached in 60-210 (the
+        same minimum as four times the budget with the Jacobian's scaling). On the NL ring fits
+        neither scaling is better, so unit scaling only continues a polish that ran out. ``nfev``
+        is the sum."""
         sol = self.solve(zf0, lo, hi, max_nfev)
         if sol.status != 0:
             return sol
