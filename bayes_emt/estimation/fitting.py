@@ -347,7 +347,8 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
         it the estimate is the paper's (step 2) and the covariance is still computed with relative
         residuals at that point.
     max_nfev : evaluation budget of the final polish (default 25 per parameter; the intermediate
-        steps get at most 30 per parameter). A polish that runs out reports ``success=False``.
+        steps get at most 30 per parameter). A polish that runs out is continued once with unit scaling
+        (:meth:`_Problem.polish`); one that runs out again reports ``success=False``.
     re : an ohmmeter reading (:func:`~bayes_emt.estimation.meter.as_meter`: ohms, ``(ohms, sd)``,
         ``(ohms, sd, mode)`` or a :class:`~bayes_emt.estimation.meter.Meter`): after the fit, one
         more polish adds the penalty residual ``s (R0 − R_meter)/sd_held`` (``s`` the fit's residual
