@@ -303,11 +303,11 @@ def _stable_side(model, theta, rs, Cs, ev, plant, grid, bandwidth, info):
     """``(Rs, evaluation)``: ``ev`` when stable; otherwise Rs moved just above the exact threshold.
 
     The search constrains Rs by the threshold on its frequency grid (:func:`instability_threshold`
-    without refinement, for speed); the evaluation refines it. Where the optimum lies at the
-    boundary (more negative Rs keeps lowering the peak), the search can end between the two: on the
-    SEAS E0018 UD+suspension_creep fit 2.5e-8 ohm past the exact threshold, an unstable design. The
-    design returned is then the stable one closest to the boundary (its margin a hair, which the
-    margin check compares with the R0 uncertainty), and ``info["stability_backoff"]`` says so."""
+    without refinement, for speed); the evaluation refines it. Where the optimum lies close to the
+    boundary the search can end between the two: on the SEAS E0018 UD+suspension_creep fit 2.5e-8 ohm
+    past the exact threshold, an unstable design. Rs is then moved just above the exact threshold
+    (:func:`design_rc_shunt` polishes again from there and keeps the better stable design; the margin
+    check compares the margin with the R0 uncertainty), and ``info["stability_backoff"]`` says so."""
     if ev.stable or not math.isfinite(ev.Rs_instability):
         return rs, ev
     step = BACKOFF * max(abs(ev.Rs_instability), plant.R0)
