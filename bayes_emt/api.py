@@ -163,14 +163,14 @@ def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *
 
     m = None if model is None else as_model(model)
     data = as_measurement(meas)
-    d = _diagnose(data, m, fit=fit, seed=seed, max_rounds=max_rounds,
-                  time_budget=time_budget, setup=setup, exclude_band=exclude_band, progress=progress,
-                  per_decade=per_decade)
+    # the search's settings, which a second recording's own diagnosis (search_also) shares
+    settings = dict(seed=seed, max_rounds=max_rounds, time_budget=time_budget, setup=setup,
+                    exclude_band=exclude_band, per_decade=per_decade)
+    d = _diagnose(data, m, fit=fit, progress=progress, **settings)
     pairs = [a if isinstance(a, tuple | list) else (a, None) for a in also]
     if not pairs:
         return d
-    search = dict(seed=seed, max_rounds=max_rounds, time_budget=time_budget, setup=setup,
-                  exclude_band=exclude_band, per_decade=per_decade) if search_also else None
+    search = settings if search_also else None
     return with_second_recordings(d, data.exclude_bands(exclude_band),
                                   [(as_measurement(r), None if dm is None else float(dm)) for r, dm in pairs],
                                   search=search)

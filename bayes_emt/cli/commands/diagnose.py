@@ -118,9 +118,8 @@ def run(args) -> int:
         from ...params import Normal
 
         model = model.with_priors({"R0": Normal(*args.re)}, where="--re")
-    d = diagnose(
-        meas,
-        model,
+    # the diagnosis's settings, which a second recording's own diagnosis (--also) shares
+    settings = dict(
         seed=args.seed,
         max_rounds=args.max_rounds,
         time_budget=args.time_budget or None,
@@ -130,14 +129,11 @@ def run(args) -> int:
         progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)),
         **({} if args.per_decade is None else {"per_decade": args.per_decade or None}),
     )
+    d = diagnose(meas, model, **settings)
     if also:
         from ...discovery.joint import with_second_recordings
 
-        search = None if args.no_search_also else dict(
-            seed=args.seed, max_rounds=args.max_rounds, time_budget=args.time_budget or None,
-            setup=args.setup, exclude_band=args.exclude_band, workers=args.workers,
-            progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)),
-            **({} if args.per_decade is None else {"per_decade": args.per_decade or None}))
+        search = None if args.no_search_also else settings
         d = with_second_recordings(d, meas.exclude_bands(args.exclude_band), others, search=search)
     thinned = f"; {d.search_note}" if d.search_note else ""
     print(
