@@ -1,0 +1,103 @@
+"""What the diagnosis's breadth costs and buys (issue 23, speed): the search with it cut.
+
+One command::
+
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 \\
+        .venv/bin/python scripts/discovery_breadth.py --out DIR
+
+Three parts of the search were each added to fix a miss of the concealed-effect benchmark: every
+catalogue term polished from its three best starts (:data:`bayes_emt.discovery.name.STARTS_POLISHED`),
+the two leading terms fitted again the full way (``REFINE_TOP``), and the masked pairs tried when a
+patch leads (``_masked_jobs``). This script cuts all three (one start, no refit, no masked pairs;
+nothing else changes) and runs, on that narrowed search:
+
+1. the concealed-effect benchmark (``scripts/discovery_benchmark.py --out DIR/concealed``), whose
+   summary is set beside the stored full search's (``scripts/results/discovery/scores.json``);
+2. ``benchmarks/bench_diagnose.py`` on ../shared/realdata (the diagnosis against one UD fit of the
+   same file, the oracle floor), its rows set beside the stored full search's
+   (``benchmarks/results.json``).
+
+Written to ``DIR/breadth.json`` and ``DIR/breadth.md``. The knobs are set in this process before
+the diagnosis's worker processes are forked, so they hold there too. A measurement, not an
+option: the library's search is the full one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import runpy
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def narrow() -> None:
+    """Cut the three parts of the search (module docstring), in this process."""
+    import bayes_emt.discovery.name as name
+
+    name.STARTS_POLISHED = 1
+    name.REFINE_TOP = 0
+    name._masked_jobs = lambda *a, **k: []
+
+
+def _run(path: Path, argv: list[str], capture: bool = True) -> str:
+    """Run the script at ``path`` with ``argv`` as ``__main__``; its standard output (printed
+    instead when not ``capture``)."""
+    buf, old = io.StringIO(), sys.argv
+    sys.argv = [str(path), *argv]
+    try:
+        with contextlib.redirect_stdout(buf) if capture else contextlib.nullcontext():
+            try:
+                runpy.run_path(str(path), run_name="__main__")
+            except SystemExit as e:
+                if e.code not in (0, None):
+                    raise
+    finally:
+        sys.argv = old
+    return buf.getvalue()
+
+
+def _rows(results: dict) -> dict:
+    return results["details"]["diagnose_realdata"]["rows"]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", required=True, help="folder for the results (created)")
+    a = ap.parse_args(argv)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    narrow()
+    _run(ROOT / "scripts" / "discovery_benchmark.py", ["--out", str(out / "concealed")], capture=False)
+    narrowed = json.loads((out / "concealed" / "scores.json").read_text())["summary"]
+    full = json.loads((ROOT / "scripts" / "results" / "discovery" / "scores.json").read_text())["summary"]
+    real = json.loads(_run(ROOT / "benchmarks" / "bench_diagnose.py", []))
+    stored = json.loads((ROOT / "benchmarks" / "results.json").read_text())
+    full_real = stored["details"]["bench_diagnose"]["diagnose_realdata"]["rows"]
+    keys = ["effects_named", "effects", "cases_right", "cases", "patch_findings_in_lookalikes",
+            "null_cases_with_finding", "null_seeds_with_finding", "seconds_median", "seconds_max"]
+    record = {"concealed": {"full": {k: full.get(k) for k in keys},
+                            "narrowed": {k: narrowed.get(k) for k in keys}},
+              "realdata": {"narrowed": _rows(real), "full": full_real}}
+    lines = ["# The search with its breadth cut (scripts/discovery_breadth.py)", "",
+             "## Concealed-effect benchmark", "", "| figure | full search | narrowed |", "|---|---|---|"]
+    lines += [f"| {k} | {full.get(k)} | {narrowed.get(k)} |" for k in keys]
+    lines += ["", "## ../shared/realdata (one run each; wall x one UD fit of the same file)", "",
+              "| recording | full: x UD fit | full: final model | narrowed: x UD fit "
+              "| narrowed: final model | oracle floor (CPU x) |", "|---|---|---|---|---|---|"]
+    for n, r in _rows(real).items():
+        f = full_real.get(n, {})
+        lines.append(f"| {n} | {f.get('ratio', float('nan')):.0f} | {f.get('final_model', '-')} | "
+                     f"{r['ratio']:.0f} | {r['final_model']} | {r['oracle_floor_x_one_ud_fit_cpu']:.1f} |")
+    (out / "breadth.json").write_text(json.dumps(record, indent=1) + "\n")
+    (out / "breadth.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
