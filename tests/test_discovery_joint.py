@@ -10,7 +10,7 @@ import pytest
 from bayes_emt.cli import main
 from bayes_emt.cli.commands.diagnose import also_arg
 from bayes_emt.discovery.diagnose import Diagnosis, Finding
-from bayes_emt.discovery.joint import check_with, model_without, with_second_recordings
+from bayes_emt.discovery.joint import check_with, model_without, value_disagreements, with_second_recordings
 from bayes_emt.discovery.locate import Band
 from bayes_emt.estimation.fitting import fit_admittance
 from bayes_emt.io import write_measurement
@@ -66,6 +66,63 @@ def test_a_term_both_recordings_need_passes_one_only_the_first_needs_is_flagged(
     assert am["final"]["m_kg"] == pytest.approx(M, rel=0.10)
     # the step forced on B too: the pair does not share the final model (the F-test rejects it)
     assert am["final"]["consistency_p_value"] < 1e-3
+
+
+MODE2 = {"zeta2": 0.03, "omega2": 2 * np.pi * 400.0, "phi2": 12.0}
+
+
+@pytest.mark.parametrize("f2_other, agree", [(400.0, True), (1200.0, False)])
+def test_a_term_the_other_recording_needs_for_another_feature_is_flagged(f2_other, agree):
+    """A: a second mode at 400 Hz; B: the same driver with its second mode at 400 Hz (the same
+    physics) or at 1200 Hz (another feature). B needs the term either way (Δ log Z_B ≥ 5); only
+    the values tell them apart, and at 1200 Hz the finding is flagged with both values named."""
+    model = parse_model_spec("I+second_resonance")
+    a = simulate(model, {**SPEAKER, **MODE2}, GRID, noise=0.003, seed=31, source="A")
+    b = simulate(model, {**SPEAKER, **MODE2, "omega2": 2 * np.pi * f2_other}, GRID, noise=0.003, seed=32,
+                 source="B")
+    base = fit_admittance(a, parse_model_spec("I"))
+    final = fit_admittance(a, model, initial={**SPEAKER, **MODE2})
+    diag = Diagnosis("A", base, final, (_finding("second_resonance", model.label),), ())
+    out = with_second_recordings(diag, a, [(b, None)])
+    rec = out.joint[0]
+    (t,) = rec["terms"]
+    assert t["needed_by_other"] is True and t["delta_log_evidence_other"] >= 5.0
+    assert t["values_agree"] is agree
+    assert (rec["flagged"] == ["second_resonance"]) is not agree
+    warned = [w for w in out.warnings if w.startswith("second_resonance:") and "joint evidence" in w]
+    table = next(x for x in out.tables() if "joint evidence" in x.title)
+    if agree:
+        assert warned == [] and table.rows[0][3] == "yes"
+    else:
+        apart = {x["name"]: x for x in t["values_apart"]}
+        assert apart["omega2"]["first"] == pytest.approx(2 * np.pi * 400.0, rel=0.02)
+        assert apart["omega2"]["other"] == pytest.approx(2 * np.pi * 1200.0, rel=0.02)
+        assert len(warned) == 1 and "another feature" in warned[0]
+        assert table.rows[0][3] == "with other values: flagged"
+
+
+def test_values_disagree_only_beyond_the_factor_and_the_standard_errors():
+    """:func:`value_disagreements` on hand-made fits: a factor 3 apart with small errors disagrees; a
+    factor 1.5 apart (within the factor 2) or a factor 3 apart with errors as large do not; a
+    parameter without a standard error is not judged."""
+    model = parse_model_spec("I+second_resonance")
+    vals = {**SPEAKER, **MODE2}
+    theta = np.array([vals.get(n, 1.0) for n in model.names])
+    i = model.names.index("omega2")
+
+    def fit(w2, sd):
+        th = theta.copy()
+        th[i] = w2
+        cov = np.diag(np.full(model.ndim, 1e-6))
+        cov[i, i] = sd**2
+        return SimpleNamespace(model=model, z=model.params.to_z(th), cov_z=cov, parameters=model.as_dict(th))
+
+    w = 2 * np.pi * 400.0
+    assert [x["name"] for x in value_disagreements(fit(w, 0.01), fit(3 * w, 0.01), ["omega2"])] == ["omega2"]
+    assert value_disagreements(fit(w, 0.01), fit(1.5 * w, 0.01), ["omega2"]) == []
+    assert value_disagreements(fit(w, 0.5), fit(3 * w, 0.5), ["omega2"]) == []
+    assert value_disagreements(fit(w, 0.01), SimpleNamespace(**{**vars(fit(3 * w, 0.01)), "cov_z": None}),
+                               ["omega2"]) == []
 
 
 def test_the_diagnosis_carries_the_joint_record_and_a_warning_per_flagged_term(pair):

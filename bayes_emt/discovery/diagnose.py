@@ -352,10 +352,14 @@ class Diagnosis(Record):
 
 def _joint_table(source: str, j: dict) -> Table:
     """One joint-evidence record (:mod:`.joint`) as a table: each term, which recording named it, the
-    other's log Z gain with it [nats], and whether both need it."""
+    other's log Z gain with it [nats], and whether both need it (with the same values)."""
     needed = {True: "yes", False: "no: flagged"}
-    rows = tuple((t["physics"], "this", t["delta_log_evidence_other"], needed.get(t["needed_by_other"], "-"))
-                 for t in j["terms"])
+
+    def verdict(t):  # a term the other needs with other values is another feature there
+        v = needed.get(t["needed_by_other"], "-")
+        return "with other values: flagged" if v == "yes" and t.get("values_agree") is False else v
+
+    rows = tuple((t["physics"], "this", t["delta_log_evidence_other"], verdict(t)) for t in j["terms"])
     notes = ()
     if "search" in j:
         sr = j["search"]

@@ -17,6 +17,16 @@ is run with A's baseline and final models; the record gives ``m``, ``Bl``, ``k``
 pair's consistency F-test for each, so one sees whether the named physics explains both recordings
 in one fit.
 
+**The same values** (:func:`value_disagreements`): B needing a term is not B needing it *for the
+same thing*. Each finding's own parameters (those its removal takes out) from A's final fit and
+from B's fit with A's final model must agree: a parameter disagrees when its two values differ by
+more than three combined standard errors *and* by more than a factor :data:`VALUE_FACTOR` (or
+the mass ratio ``(m + Δm)/m = (ω0_A/ω0_B)²`` when that is larger: the most a mass-dependent value
+may move). Such a finding is **flagged** whatever its ``Δ log Z_B``: B uses the term for another
+feature. On the LS10-44 run2 pair the free-air run's second resonance sits at 148.6 rad/s
+(23.6 Hz); the added-mass run, refitted with the same model, puts it at 4925 rad/s (784 Hz), 33
+times higher, while its ``Δ log Z_B`` of +3285 nats said B needs it.
+
 **The other way round** (:func:`search_other`, ``search``): B is diagnosed too, from A's starting
 model with A's settings, and each term B's diagnosis names that A's findings do not is added to A's
 final model and fitted on A (the same warm starts the search uses, in the band B found it). Its gain
@@ -44,11 +54,18 @@ from ..estimation.fitting import fit_admittance
 from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import EDDY_PHYSICS, Model, parse_model_spec
-from .diagnose import diagnose
+from .diagnose import _fmt, diagnose
 from .locate import Band
 from .name import MIN_DELTA_LOG_Z, fit_candidate, log_evidence, max_log_likelihood
 
-__all__ = ["check_with", "with_second_recordings", "model_without", "search_other", "named_ids"]
+__all__ = ["check_with", "with_second_recordings", "model_without", "search_other", "named_ids",
+           "value_disagreements", "VALUE_FACTOR"]
+
+#: the factor by which a term's value on the two recordings may differ before it counts as another
+#: feature (with three combined standard errors; :func:`value_disagreements`)
+VALUE_FACTOR = 2.0
+#: combined standard errors a disagreement must exceed
+VALUE_SE = 3.0
 
 
 def model_without(diag, i: int) -> Model:
@@ -66,6 +83,38 @@ def model_without(diag, i: int) -> Model:
         coil = before.split("+")[0]
         m = parse_model_spec("+".join([coil, *[t.id for t in m.augmentations]]))
     return m
+
+
+def value_disagreements(fit_a: FitResult, fit_b: FitResult, names,
+                        factor: float = VALUE_FACTOR) -> list[dict]:
+    """The parameters of ``names`` whose values in ``fit_a`` and ``fit_b`` (the same model) disagree
+    (module docstring): in sampling space (the log of a log-uniform parameter) more than
+    :data:`VALUE_SE` combined standard errors apart, and, for a positive parameter, more than a
+    factor ``factor`` (else by more than ``factor − 1`` times the larger magnitude). A parameter
+    whose standard error either fit cannot give is not judged. Each ``{"name", "unit", "first",
+    "other"}`` [SI]."""
+    out = []
+    za, zb = fit_a.z, fit_b.z
+    sa = np.sqrt(np.clip(np.diag(fit_a.cov_z), 0, None)) if fit_a.cov_z is not None else None
+    sb = np.sqrt(np.clip(np.diag(fit_b.cov_z), 0, None)) if fit_b.cov_z is not None else None
+    if sa is None or sb is None:
+        return out
+    va, vb = fit_a.parameters, fit_b.parameters
+    for n in names:
+        i = fit_a.model.names.index(n)
+        spec = fit_a.model.params[n]
+        se = math.hypot(float(sa[i]), float(sb[i]))
+        dz = abs(float(zb[i] - za[i]))
+        if not (math.isfinite(se) and math.isfinite(dz)) or dz <= VALUE_SE * se:
+            continue
+        a, b = va[n], vb[n]
+        if spec.transform == "log":
+            far = dz > math.log(factor)
+        else:
+            far = abs(b - a) > (factor - 1.0) * max(abs(a), abs(b))
+        if far:
+            out.append({"name": n, "unit": spec.unit, "first": a, "other": b})
+    return out
 
 
 def _fit(meas: Measurement, model: Model, start: dict) -> FitResult:
@@ -107,9 +156,17 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
         return max_log_likelihood(other, f) - 0.5 * f.model.ndim * math.log(n_values)
 
     method = "laplace" if math.isfinite(lz) else "bic"
+    w_a, w_b = diag.final_fit.parameters.get("omega0"), start_b.get("omega0")
+    factor = VALUE_FACTOR
+    if delta_m is not None and w_a and w_b and w_a > 0 and w_b > 0:
+        # the mass ratio (m + Δm)/m (or its inverse for a mass taken off): the most a mass-dependent
+        # value may move
+        factor = max(factor, (w_a / w_b) ** 2, (w_b / w_a) ** 2)
     terms, flagged = [], []
     for i, f in enumerate(diag.findings):
         m0 = model_without(diag, i)
+        own = [n for n in final.names if n not in m0.names]
+        apart = value_disagreements(diag.final_fit, fb, own, factor)
         try:
             f0 = _fit(other, m0, start_b)
             lz0 = log_evidence(other, f0) if method == "laplace" else math.nan
@@ -128,10 +185,17 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
                 else f"{other.source} does not need it (log Z {d:+.1f} nats with it, < {MIN_DELTA_LOG_Z:g}): "
                      "a term only one recording needs" if needed is False
                 else "the evidence on the second recording failed")
-        if needed is False:
+        if apart:
+            pairs = ", ".join(f"{a['name']} {_fmt(a['first'], a['unit'])} here, "
+                              f"{_fmt(a['other'], a['unit'])} there" for a in apart)
+            note += (f"; but not for the same thing: its values disagree ({pairs}, beyond a factor "
+                     f"{factor:.3g} and {VALUE_SE:g} standard errors): the other recording uses the term "
+                     "for another feature")
+        if needed is False or apart:
             flagged.append(f.physics)
         terms.append({"physics": f.physics, "delta_log_evidence_other": d if math.isfinite(d) else None,
-                      "needed_by_other": needed, "model_without": m0.label, "note": note, "method": how})
+                      "needed_by_other": needed, "model_without": m0.label, "note": note, "method": how,
+                      "values_agree": not apart, "values_apart": apart})
     rec = {"source": str(other.source), "delta_m_kg": delta_m, "final_model": final.label,
            "rms_rel_residual_other": fb.rms_rel_residual,
            "log_z_final": lz if math.isfinite(lz) else None, "terms": terms, "flagged": flagged}
@@ -228,6 +292,6 @@ def with_second_recordings(diag, meas: Measurement, also, search: dict | None = 
                 warn.append(f"{t['physics']}: {t['note']} (joint evidence)")
         recs.append(rec)
         for t in rec["terms"]:
-            if t["needed_by_other"] is False:
+            if t["physics"] in rec["flagged"]:
                 warn.append(f"{t['physics']}: {t['note']} (joint evidence)")
     return dataclasses.replace(diag, joint=tuple(recs), warnings=tuple(warn))
