@@ -73,19 +73,29 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     narrow()
     _run(ROOT / "scripts" / "discovery_benchmark.py", ["--out", str(out / "concealed")], capture=False)
-    narrowed = json.loads((out / "concealed" / "scores.json").read_text())["summary"]
-    full = json.loads((ROOT / "scripts" / "results" / "discovery" / "scores.json").read_text())["summary"]
+    scores_n = json.loads((out / "concealed" / "scores.json").read_text())
+    scores_f = json.loads((ROOT / "scripts" / "results" / "discovery" / "scores.json").read_text())
+    narrowed, full = scores_n["summary"], scores_f["summary"]
+    for summary, scores in ((narrowed, scores_n), (full, scores_f)):
+        summary["seconds_total"] = round(sum(c["seconds"] for c in scores["cases"]), 1)
+    found_f = {c["name"]: c["found"] for c in scores_f["cases"]}
+    changed = [(c["name"], found_f.get(c["name"]), c["found"]) for c in scores_n["cases"]
+               if sorted(c["found"]) != sorted(found_f.get(c["name"]) or [])]
     real = json.loads(_run(ROOT / "benchmarks" / "bench_diagnose.py", []))
     stored = json.loads((ROOT / "benchmarks" / "results.json").read_text())
     full_real = stored["details"]["bench_diagnose"]["diagnose_realdata"]["rows"]
     keys = ["effects_named", "effects", "cases_right", "cases", "patch_findings_in_lookalikes",
-            "null_cases_with_finding", "null_seeds_with_finding", "seconds_median", "seconds_max"]
+            "null_cases_with_finding", "null_seeds_with_finding", "seconds_total"]
     record = {"concealed": {"full": {k: full.get(k) for k in keys},
-                            "narrowed": {k: narrowed.get(k) for k in keys}},
+                            "narrowed": {k: narrowed.get(k) for k in keys},
+                            "changed": [{"case": n, "full": f, "narrowed": g} for n, f, g in changed]},
               "realdata": {"narrowed": _rows(real), "full": full_real}}
     lines = ["# The search with its breadth cut (scripts/discovery_breadth.py)", "",
              "## Concealed-effect benchmark", "", "| figure | full search | narrowed |", "|---|---|---|"]
     lines += [f"| {k} | {full.get(k)} | {narrowed.get(k)} |" for k in keys]
+    what = [f"{n} (full: {', '.join(f or []) or 'none'}; narrowed: {', '.join(g) or 'none'})"
+            for n, f, g in changed]
+    lines += ["", "Cases whose findings change: " + ("; ".join(what) or "none")]
     lines += ["", "## ../shared/realdata (one run each; wall x one UD fit of the same file)", "",
               "| recording | full: x UD fit | full: final model | narrowed: x UD fit "
               "| narrowed: final model | oracle floor (CPU x) |", "|---|---|---|---|---|---|"]

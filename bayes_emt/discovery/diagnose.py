@@ -357,7 +357,11 @@ def _joint_table(source: str, j: dict) -> Table:
 
     def verdict(t):  # a term the other needs with other values is another feature there
         v = needed.get(t["needed_by_other"], "-")
-        return "with other values: flagged" if v == "yes" and t.get("values_agree") is False else v
+        if v == "yes" and t.get("values_agree") is False:
+            return "with other values: flagged"
+        if v == "yes" and "values_agree" in t and t["values_agree"] is None:
+            return "yes (values not compared: a fit without covariance)"
+        return v
 
     rows = tuple((t["physics"], "this", t["delta_log_evidence_other"], verdict(t)) for t in j["terms"])
     notes = ()

@@ -86,19 +86,19 @@ def model_without(diag, i: int) -> Model:
 
 
 def value_disagreements(fit_a: FitResult, fit_b: FitResult, names,
-                        factor: float = VALUE_FACTOR) -> list[dict]:
+                        factor: float = VALUE_FACTOR) -> list[dict] | None:
     """The parameters of ``names`` whose values in ``fit_a`` and ``fit_b`` (the same model) disagree
-    (module docstring): in sampling space (the log of a log-uniform parameter) more than
-    :data:`VALUE_SE` combined standard errors apart, and, for a positive parameter, more than a
-    factor ``factor`` (else by more than ``factor − 1`` times the larger magnitude). A parameter
-    whose standard error either fit cannot give is not judged. Each ``{"name", "unit", "first",
-    "other"}`` [SI]."""
+    (module docstring): more than :data:`VALUE_SE` combined standard errors apart in sampling space,
+    and more than a factor ``factor`` apart for a log-uniform parameter (any other: more than
+    ``factor − 1`` times the larger magnitude). Each ``{"name", "unit", "first", "other"}`` [SI];
+    ``None`` when either fit has no covariance (nothing can be judged); a parameter whose standard
+    error is not finite is not judged."""
     out = []
     za, zb = fit_a.z, fit_b.z
     sa = np.sqrt(np.clip(np.diag(fit_a.cov_z), 0, None)) if fit_a.cov_z is not None else None
     sb = np.sqrt(np.clip(np.diag(fit_b.cov_z), 0, None)) if fit_b.cov_z is not None else None
     if sa is None or sb is None:
-        return out
+        return None
     va, vb = fit_a.parameters, fit_b.parameters
     for n in names:
         i = fit_a.model.names.index(n)
@@ -185,17 +185,17 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
                 else f"{other.source} does not need it (log Z {d:+.1f} nats with it, < {MIN_DELTA_LOG_Z:g}): "
                      "a term only one recording needs" if needed is False
                 else "the evidence on the second recording failed")
-        if apart:
+        if apart and needed:  # (a term B does not need is flagged already; its values there are moot)
             pairs = ", ".join(f"{a['name']} {_fmt(a['first'], a['unit'])} here, "
                               f"{_fmt(a['other'], a['unit'])} there" for a in apart)
             note += (f"; but not for the same thing: its values disagree ({pairs}, beyond a factor "
                      f"{factor:.3g} and {VALUE_SE:g} standard errors): the other recording uses the term "
                      "for another feature")
-        if needed is False or apart:
+        if needed is False or (apart and needed):
             flagged.append(f.physics)
         terms.append({"physics": f.physics, "delta_log_evidence_other": d if math.isfinite(d) else None,
                       "needed_by_other": needed, "model_without": m0.label, "note": note, "method": how,
-                      "values_agree": not apart, "values_apart": apart})
+                      "values_agree": None if apart is None else not apart, "values_apart": apart or []})
     rec = {"source": str(other.source), "delta_m_kg": delta_m, "final_model": final.label,
            "rms_rel_residual_other": fb.rms_rel_residual,
            "log_z_final": lz if math.isfinite(lz) else None, "terms": terms, "flagged": flagged}
