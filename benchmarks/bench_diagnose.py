@@ -22,11 +22,12 @@ the one fit that gives the finding's model (a catalogue term: its best start pol
 joint ``a+b`` one term after the other; the eddy-current escalation: the automatic fit of the coil
 model it ended at, with the nested fits its start-up needs) and that fit's evidence, one after the
 other (each step starts from the last), on the points the search ran on (a long recording
-thinned). It leaves out all the work that makes the answer an
-answer: the ring ladder's other rungs, every competing term and start, the margin and stability
-checks, the round that finds nothing more. A floor above 10 means the target is below the cost of
-the findings themselves; below 10, the difference is the most that testing every alternative may
-cost. ``BENCH_DIAGNOSE_FILES`` (comma-separated
+thinned). It leaves out all the work that makes the answer an answer: the ring ladder's other
+rungs, every competing term and start, the margin and stability checks, the round that finds
+nothing more. A floor above 10 means the target is below the cost of the findings themselves;
+below 10, the difference is the most that testing every alternative may cost.
+
+``BENCH_DIAGNOSE_FILES`` (comma-separated
 names) restricts the files; ``BENCH_DIAGNOSE_WORKERS`` sets ``diagnose``'s ``workers`` (default: the
 library's). The details record the load average: the wall times grow with the machine's load,
 the CPU times do not. No ``BENCHMARKS`` entry (minutes per file): figures of merit only, this tree.
@@ -98,6 +99,7 @@ def oracle_floor(meas, d) -> dict:
     """The oracle floor of diagnosis ``d`` of ``meas`` (module docstring): ``{"cpu_s": seconds,
     "steps": [{"physics", "model", "fit_cpu_s", "evidence_cpu_s"}]}``, in this process."""
     from bayes_emt.discovery.diagnose import preferred_base_model
+    from bayes_emt.errors import FitError
     from bayes_emt.estimation.augment import augmentation_starts
     from bayes_emt.estimation.fitting import fit_admittance, fit_reusing
     from bayes_emt.evidence.fit_evidence import fit_log_evidence
@@ -123,10 +125,15 @@ def oracle_floor(meas, d) -> dict:
                 best = None
                 for s in starts[:3]:
                     c = time.process_time()
-                    fit = fit_admittance(meas, new, initial=s, warm=True)
+                    try:
+                        fit = fit_admittance(meas, new, initial=s, warm=True)
+                    except (FitError, ValueError):
+                        continue
                     spent = time.process_time() - c
                     if best is None or fit.chi2 < best[0].chi2:
                         best = (fit, spent)
+                if best is None:
+                    raise FitError(f"{meas.source}: no start of {new.label} could be fitted (oracle floor)")
                 current = best[0]
                 fit_cpu += best[1]
         c = time.process_time()

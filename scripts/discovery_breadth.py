@@ -32,6 +32,8 @@ import runpy
 import sys
 from pathlib import Path
 
+from bayes_emt._atomic import atomic_write_text
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -61,8 +63,11 @@ def _run(path: Path, argv: list[str], capture: bool = True) -> str:
     return buf.getvalue()
 
 
-def _rows(results: dict) -> dict:
-    return results["details"]["diagnose_realdata"]["rows"]
+def _rows(details: dict) -> dict:
+    """The per-recording rows of a ``bench_diagnose`` result's ``details`` (``{}`` when it had no
+    recordings)."""
+    rows = details.get("diagnose_realdata", {})
+    return rows.get("rows", {}) if isinstance(rows, dict) else {}
 
 
 def main(argv=None) -> int:
@@ -81,15 +86,15 @@ def main(argv=None) -> int:
     found_f = {c["name"]: c["found"] for c in scores_f["cases"]}
     changed = [(c["name"], found_f.get(c["name"]), c["found"]) for c in scores_n["cases"]
                if sorted(c["found"]) != sorted(found_f.get(c["name"]) or [])]
-    real = json.loads(_run(ROOT / "benchmarks" / "bench_diagnose.py", []))
+    real = _rows(json.loads(_run(ROOT / "benchmarks" / "bench_diagnose.py", [])).get("details", {}))
     stored = json.loads((ROOT / "benchmarks" / "results.json").read_text())
-    full_real = stored["details"]["bench_diagnose"]["diagnose_realdata"]["rows"]
+    full_real = _rows(stored.get("details", {}).get("bench_diagnose", {}))
     keys = ["effects_named", "effects", "cases_right", "cases", "patch_findings_in_lookalikes",
             "null_cases_with_finding", "null_seeds_with_finding", "seconds_total"]
     record = {"concealed": {"full": {k: full.get(k) for k in keys},
                             "narrowed": {k: narrowed.get(k) for k in keys},
                             "changed": [{"case": n, "full": f, "narrowed": g} for n, f, g in changed]},
-              "realdata": {"narrowed": _rows(real), "full": full_real}}
+              "realdata": {"narrowed": real, "full": full_real}}
     lines = ["# The search with its breadth cut (scripts/discovery_breadth.py)", "",
              "## Concealed-effect benchmark", "", "| figure | full search | narrowed |", "|---|---|---|"]
     lines += [f"| {k} | {full.get(k)} | {narrowed.get(k)} |" for k in keys]
@@ -99,12 +104,14 @@ def main(argv=None) -> int:
     lines += ["", "## ../shared/realdata (one run each; wall x one UD fit of the same file)", "",
               "| recording | full: x UD fit | full: final model | narrowed: x UD fit "
               "| narrowed: final model | oracle floor (CPU x) |", "|---|---|---|---|---|---|"]
-    for n, r in _rows(real).items():
+    for n, r in real.items():
         f = full_real.get(n, {})
         lines.append(f"| {n} | {f.get('ratio', float('nan')):.0f} | {f.get('final_model', '-')} | "
                      f"{r['ratio']:.0f} | {r['final_model']} | {r['oracle_floor_x_one_ud_fit_cpu']:.1f} |")
-    (out / "breadth.json").write_text(json.dumps(record, indent=1) + "\n")
-    (out / "breadth.md").write_text("\n".join(lines) + "\n")
+    if not real:
+        lines.append("(no recordings: ../shared/realdata is absent)")
+    atomic_write_text(out / "breadth.json", json.dumps(record, indent=1) + "\n")
+    atomic_write_text(out / "breadth.md", "\n".join(lines) + "\n")
     print("\n".join(lines))
     return 0
 
