@@ -97,7 +97,7 @@ def test_a_term_the_other_recording_needs_for_another_feature_is_flagged(f2_othe
         apart = {x["name"]: x for x in t["values_apart"]}
         assert apart["omega2"]["first"] == pytest.approx(2 * np.pi * 400.0, rel=0.02)
         assert apart["omega2"]["other"] == pytest.approx(2 * np.pi * 1200.0, rel=0.02)
-        assert len(warned) == 1 and "another feature" in warned[0]
+        assert len(warned) == 1 and "do not use it for the same thing" in warned[0]
         assert table.rows[0][3] == "with other values: flagged"
 
 

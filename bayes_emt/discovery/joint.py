@@ -22,8 +22,9 @@ same thing*. Each finding's own parameters (those its removal takes out) from A'
 from B's fit with A's final model must agree: a parameter disagrees when its two values differ by
 more than three combined standard errors *and* by more than a factor :data:`VALUE_FACTOR` (or
 the mass ratio ``(m + Δm)/m = (ω0_A/ω0_B)²`` when that is larger: the most a mass-dependent value
-may move). Such a finding is **flagged** whatever its ``Δ log Z_B``: B uses the term for another
-feature. On the LS10-44 run2 pair the free-air run's second resonance sits at 148.6 rad/s
+may move). Such a finding is **flagged** whatever its ``Δ log Z_B``: the two recordings do not use
+the term for the same thing (B uses it for another feature, or its values trade against the other
+terms). On the LS10-44 run2 pair the free-air run's second resonance sits at 148.6 rad/s
 (23.6 Hz); the added-mass run, refitted with the same model, puts it at 4925 rad/s (784 Hz), 33
 times higher, while its ``Δ log Z_B`` of +3285 nats said B needs it.
 
@@ -189,8 +190,9 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
             pairs = ", ".join(f"{a['name']} {_fmt(a['first'], a['unit'])} here, "
                               f"{_fmt(a['other'], a['unit'])} there" for a in apart)
             note += (f"; but not for the same thing: its values disagree ({pairs}, beyond a factor "
-                     f"{factor:.3g} and {VALUE_SE:g} standard errors): the other recording uses the term "
-                     "for another feature")
+                     f"{factor:.3g} and {VALUE_SE:g} standard errors): the two recordings do not use it "
+                     "for the same thing (another feature there, or values traded against the other "
+                     "terms)")
         if needed is False or (apart and needed):
             flagged.append(f.physics)
         terms.append({"physics": f.physics, "delta_log_evidence_other": d if math.isfinite(d) else None,
