@@ -293,12 +293,18 @@ def test_an_unstable_patch_the_final_model_does_not_need_is_dropped_one_it_needs
 def test_a_narrow_mode_finding_reads_as_a_narrow_resonance_with_its_band_to_exclude():
     model = parse_model_spec("I+second_resonance")
 
-    def fit(zeta2):
-        vals = {**SPEAKER, "zeta2": zeta2, "omega2": 2 * np.pi * 5400.0, "phi2": 35.0}
+    def fit(zeta2, f2=5400.0):
+        vals = {**SPEAKER, "zeta2": zeta2, "omega2": 2 * np.pi * f2, "phi2": 35.0}
         return SimpleNamespace(model=model, theta=model.vector(vals))
 
     note = narrow_mode_note("second_resonance", fit(0.03))
     assert note.startswith("a narrow resonance at 5400 Hz, Q ≈ 16.7") and "--exclude-band" in note
+    assert "cone break-up" in note and "fixture" not in note
+    # below the driver's resonance (SPEAKER: 45 Hz) it cannot be a cone break-up (the LS10-44 free-air
+    # run's 23.6 Hz mode, Q ≈ 19, which the added-mass run does not have)
+    low = narrow_mode_note("second_resonance", fit(0.026, 23.6))
+    assert low.startswith("a narrow resonance at 23.6 Hz, Q ≈ 19.2, below the driver's resonance (45 Hz)")
+    assert "not a cone break-up" in low and "fixture" in low and "--also" in low and "--exclude-band" in low
     assert narrow_mode_note("second_resonance", fit(0.3)) == ""  # broad: a patch, not a narrow mode
     assert narrow_mode_note("semi_inductance", fit(0.03)) == ""
 

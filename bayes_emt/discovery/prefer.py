@@ -431,7 +431,9 @@ def stability_review(meas: Measurement, findings, fit: FitResult, log_z: float, 
 
 def narrow_mode_note(physics: str, fit: FitResult) -> str:
     """For a finding of a mode term fitted narrow (``narrow_when``): "narrow resonance at f Hz, Q ≈ q"
-    with the band ``f (1 ± 1.5/Q)`` to exclude when a lumped fit is wanted; ``""`` otherwise."""
+    with the band ``f (1 ± 1.5/Q)`` to exclude when a lumped fit is wanted (below the driver's
+    resonance ``ω0``, where no cone break-up or surround mode rings, a mounting, fixture or room
+    resonance is named beside the driver's own); ``""`` otherwise."""
     values = fit.model.as_dict(fit.theta)
     for t in _terms(physics, fit):
         if not t.narrow_when:
@@ -442,7 +444,16 @@ def narrow_mode_note(physics: str, fit: FitResult) -> str:
             continue
         f, q = values[freq] / (2 * math.pi), 1.0 / (2.0 * values[name])
         half = max(1.5 / q, 0.01)
+        band = f"--exclude-band {f * (1 - half):.4g}:{f * (1 + half):.4g}"
+        w0 = values.get("omega0")
+        if w0 and values[freq] < w0:
+            # below the driver's own resonance no cone or surround mode of the driver rings
+            return (f"a narrow resonance at {f:.4g} Hz, Q ≈ {q:.3g}, below the driver's resonance "
+                    f"({w0 / (2 * math.pi):.4g} Hz): not a cone break-up; a mounting, fixture or room "
+                    "resonance is as likely as the driver's own, and a second recording (--also, e.g. "
+                    "with a mass added) tells them apart; to fit the driver alone, exclude the band "
+                    f"({band})")
         return (f"a narrow resonance at {f:.4g} Hz, Q ≈ {q:.3g}: if it is a cone break-up or a surround "
                 "mode (an unmodelled narrow resonance of the lumped driver), exclude the band "
-                f"(--exclude-band {f * (1 - half):.4g}:{f * (1 + half):.4g}) rather than model it")
+                f"({band}) rather than model it")
     return ""
