@@ -189,7 +189,7 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
         if apart and needed:  # (a term B does not need is flagged already; its values there are moot)
             pairs = ", ".join(f"{a['name']} {_fmt(a['first'], a['unit'])} here, "
                               f"{_fmt(a['other'], a['unit'])} there" for a in apart)
-            note += (f"; but not for the same thing: its values disagree ({pairs}, beyond a factor "
+            note += (f"; but its values disagree ({pairs}, beyond a factor "
                      f"{factor:.3g} and {VALUE_SE:g} standard errors): the two recordings do not use it "
                      "for the same thing (another feature there, or values traded against the other "
                      "terms)")
