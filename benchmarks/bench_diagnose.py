@@ -85,7 +85,7 @@ def one(name: str, workers: int | None = None) -> dict:
         "diagnose_cpu_s": cpu,
         "ratio": wall / min(ud),
         "cpu_ratio": cpu / min(ud_cpu),
-        "budget_hit": any("time budget" in w for w in d.warnings),
+        "budget_hit": d.budget_hit,
         "oracle_floor_cpu_s": floor["cpu_s"],
         "oracle_floor_x_one_ud_fit_cpu": floor["cpu_s"] / min(ud_cpu),
         "oracle_floor_steps": floor["steps"],
@@ -99,6 +99,7 @@ def oracle_floor(meas, d) -> dict:
     """The oracle floor of diagnosis ``d`` of ``meas`` (module docstring): ``{"cpu_s": seconds,
     "steps": [{"physics", "model", "fit_cpu_s", "evidence_cpu_s"}]}``, in this process."""
     from bayes_emt.discovery.diagnose import preferred_base_model
+    from bayes_emt.discovery.name import STARTS_POLISHED
     from bayes_emt.errors import FitError
     from bayes_emt.estimation.augment import augmentation_starts
     from bayes_emt.estimation.fitting import fit_admittance, fit_reusing
@@ -123,7 +124,7 @@ def oracle_floor(meas, d) -> dict:
                 new, starts = augmentation_starts(meas, current.model, current.theta, make_term(physics),
                                                   band=band)
                 best = None
-                for s in starts[:3]:
+                for s in starts[:STARTS_POLISHED]:  # the starts fit_candidate polishes
                     c = time.process_time()
                     try:
                         fit = fit_admittance(meas, new, initial=s, warm=True)

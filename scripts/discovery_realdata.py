@@ -65,7 +65,7 @@ def run_one(name: str, out: Path, setup: str = "unknown", time_budget: float | N
                      progress=lambda m: print("   ", m, flush=True))
     rec = {"file": name, "n_points": meas.n_points, "seconds": time.perf_counter() - t, "setup": setup,
            "seconds_one_ud_fit": t_ud, "time_budget_cpu_s": time_budget, "workers": workers,
-           "budget_hit": any("time budget" in w for w in d.warnings),
+           "budget_hit": d.budget_hit,
            "load_average_1min": os.getloadavg()[0], **d.details()}
     # fs and Qms by the Thiele-Small convention (under creep: the mechanical impedance's resonance and
     # all its loss there), as the diagnosis reports them

@@ -56,7 +56,7 @@ def main(out: Path) -> int:
             row = {"wall_s": wall, "cpu_s": cpu, "ud_fit_s": min(ud), "ratio": wall / min(ud),
                    "search_points": d.search_points, "final_model": d.final_model,
                    "findings": [f.physics for f in d.findings], "R0_ohm": d.final_fit.parameters["R0"],
-                   "budget_hit": any("time budget" in w for w in d.warnings)}
+                   "budget_hit": d.budget_hit}
             rows[f"{name}, per_decade={d.search_points['per_decade']}"] = row
             print(name, json.dumps(row), flush=True)
     atomic_write_text(out, json.dumps(rows, indent=1))

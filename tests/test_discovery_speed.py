@@ -121,3 +121,15 @@ def test_base_models_fitted_in_a_pool_are_the_same_fits():
     assert pooled[1] == alone[1] and list(pooled[2]) == list(alone[2])
     np.testing.assert_array_equal(list(pooled[2].values()), list(alone[2].values()))  # nan: no log Z
     assert set(cache.fits) >= {"I", "II", "III", "UD"} and clock.workers > 0
+
+
+def test_a_search_the_budget_stopped_says_so():
+    """``Diagnosis.budget_hit`` reads the budget's warning: a budget spent before the first band is
+    examined stops the search and says so; the unbudgeted search does not."""
+    meas = simulate(parse_model_spec("UD+winding_capacitance"), {**PAPER_TABLES["UD"], "Cp": 2e-8}, GRID,
+                    noise=0.003, seed=3)
+    cut = diagnose(meas, parse_model_spec("UD"), time_budget=1e-9, workers=1)
+    assert cut.budget_hit and cut.findings == ()
+    assert any(w.startswith("time budget of 1e-09 s reached") for w in cut.warnings)
+    full = diagnose(meas, parse_model_spec("UD"), time_budget=None, workers=1)
+    assert not full.budget_hit and [f.physics for f in full.findings] == ["winding_capacitance"]

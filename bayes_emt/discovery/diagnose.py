@@ -193,6 +193,11 @@ class Diagnosis(Record):
         return self.final_fit.model.label
 
     @property
+    def budget_hit(self) -> bool:
+        """Whether the time budget stopped the search (its warning, "time budget of … reached")."""
+        return any("time budget" in w for w in self.warnings)
+
+    @property
     def search_note(self) -> str:
         """"searched on N of the M points (at most P per decade of frequency)" when the search was
         thinned (:attr:`search_points`), else ``""``."""

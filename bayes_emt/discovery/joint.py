@@ -277,7 +277,7 @@ def search_other(diag, meas: Measurement, other: Measurement, **settings) -> dic
                          "model": best.model.label, "note": note})
     return {"final_model": d_b.final_model, "baseline_model": d_b.baseline_model,
             "findings": [f.physics for f in d_b.findings], "seconds": d_b.seconds,
-            "budget_hit": any("time budget" in w for w in d_b.warnings), "only_other": only}
+            "budget_hit": d_b.budget_hit, "only_other": only}
 
 
 def with_second_recordings(diag, meas: Measurement, also, search: dict | None = None) -> object:
