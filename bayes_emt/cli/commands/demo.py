@@ -7,9 +7,9 @@
    estimator, a few seconds per model), the Laplace screen at its mode beside;
 3. keep the posterior of the model the evidence prefers (Bode bands, corner plot);
 4. design the H∞-optimal RC shunt per model, each evaluated on the best-fitting model, and push the
-   posterior through the shunt design for a robust choice (``shunt --posterior``, issue 12);
+   posterior through the shunt design for a robust choice (``shunt --posterior``);
 5. diagnose the residuals of the second bundled recording, which hides a second mechanical mode
-   (``diagnose``, issue 13); the diagnosis is not told about it;
+   (``diagnose``); the diagnosis is not told about it;
 6. write ``report.html`` (``bayes-emt report`` rebuilds it from the saved outputs).
 
 Every step calls a public verb of :mod:`bayes_emt.api` (``be.fit``, ``be.compare``, ``be.load``,
