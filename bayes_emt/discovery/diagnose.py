@@ -511,8 +511,8 @@ def r0_move_warning(before: FitResult, after: FitResult, limit: float = R0_MOVE_
     return (
         f"R0 moved {100 * d['relative_change']:+.1f} % ({d['before']:.4g} -> {d['after']:.4g} ohm) from "
         f"the baseline {before.model.label} to the final {after.model.label}: these data do not pin the "
-        "DC resistance apart from the added physics; measure it with an ohmmeter and give it as an R0 "
-        "prior (`fit`/`sample --priors`) before trusting R0-sensitive results (a negative-resistance "
+        "DC resistance apart from the added physics; measure it with an ohmmeter and give the "
+        "reading (`--re OHM`) before trusting R0-sensitive results (a negative-resistance "
         "shunt cancels most of R0)"
     )
 

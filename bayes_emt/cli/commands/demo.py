@@ -76,7 +76,7 @@ def register(sub) -> None:
     p = add_parser(sub, "demo", help="the whole chain on the bundled data, ending in report.html",
                    description=__doc__, examples=EXAMPLES)
     p.add_argument("--out", default="bayes_emt_demo", help="output folder (default ./bayes_emt_demo)")
-    p.add_argument("--quick", action="store_true", help="about 2 minutes: models I, II and NL only, 300-step "
+    p.add_argument("--quick", action="store_true", help="≈ 50 CPU s: models I, II and NL only, 300-step "
                    "chains, no Hankel ring choice, 200 draws for the robust shunt (the report says what "
                    "was cut)")
     p.add_argument("--data", default=None, help="measurement file instead of the bundled paper_bench.csv")
