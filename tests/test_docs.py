@@ -47,3 +47,27 @@ def test_the_navigation_names_existing_pages():
     # every tutorial is one of the notebooks the tests execute
     for nb in (ROOT / "docs" / "tutorials").glob("*.ipynb"):
         assert nb.resolve().parent == ROOT / "notebooks", nb
+
+
+def test_the_real_data_tutorial_is_shown_unexecuted_without_the_recordings(tmp_path, monkeypatch):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("docs_hooks", ROOT / "scripts" / "docs_hooks.py")
+    hooks = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hooks)
+
+    class Plugin:
+        def __init__(self):
+            self.config = {"execute": True, "execute_ignore": []}
+
+    class Config:
+        def __init__(self):
+            self.plugins = {"mkdocs-jupyter": Plugin()}
+
+    monkeypatch.setenv("BAYES_EMT_REALDATA", str(tmp_path))  # an empty folder: no recordings
+    cfg = hooks.on_config(Config())
+    assert cfg.plugins["mkdocs-jupyter"].config["execute_ignore"] == [hooks.NEEDS_REALDATA]
+    assert (ROOT / "docs" / hooks.NEEDS_REALDATA).exists()
+    (tmp_path / hooks.PROBE).write_text("")  # the recordings are there: everything runs
+    cfg = hooks.on_config(Config())
+    assert cfg.plugins["mkdocs-jupyter"].config["execute_ignore"] == []
