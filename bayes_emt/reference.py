@@ -1,5 +1,6 @@
-"""The source paper's published values (SPEC.md §5), used as reference data in tests, the bundled
-dataset and the demo. SI units; names per SPEC §6. Never used as a fit's answer."""
+"""The source paper's published values (its Tables 1–7, B.8 and B.9), used as reference data in tests,
+the bundled dataset and the demo. SI units; parameter names as in Physics and conventions. Never
+used as a fit's answer."""
 
 from __future__ import annotations
 

@@ -44,7 +44,7 @@ for w in caught:
 print(post.summary())
 
 # %% [markdown]
-# ## The optimal RC shunt for the fitted model (SPEC §4)
+# ## The optimal RC shunt for the fitted model (H∞ design)
 
 # %%
 design = be.design_shunt(fit)

@@ -5,7 +5,7 @@
 # cone (`../shared/realdata`, see its README; these files are not shipped with bayes_emt). From the
 # admittance alone the model gives the mass-normalised quantities (ζ, ω0, φ̄); the added mass turns
 # them into the physical moving mass m [kg], suspension stiffness k [N/m], damping c [N s/m] and
-# force factor φ = Bl [N/A] (SPEC §3 step 4), here by a joint fit of both recordings.
+# force factor φ = Bl [N/A] (the added-mass method), here by a joint fit of both recordings.
 #
 # Set `BAYES_EMT_REALDATA` to the folder if it is not found next to the project.
 

@@ -128,7 +128,7 @@ def test_a_final_model_that_moves_r0_by_more_than_five_percent_is_warned_about()
 
     assert R0_MOVE_WARN == 0.05
     w = r0_move_warning(fit(8.608, "UD"), fit(7.153, "NL(3)+second_resonance"))
-    assert w is not None and "-16.9 %" in w and "8.608 -> 7.153 ohm" in w and "--priors" in w
+    assert w is not None and "-16.9 %" in w and "8.608 -> 7.153 ohm" in w and "--re OHM" in w
     assert "UD" in w and "NL(3)+second_resonance" in w
     assert r0_move_warning(fit(8.608, "UD"), fit(8.608 * 1.049, "NL(2)")) is None
     assert r0_move_warning(fit(8.608, "UD"), fit(8.608 * 1.051, "NL(2)")) is not None

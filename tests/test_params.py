@@ -72,8 +72,8 @@ def test_same_name_same_prior_across_models():
             assert build_model(m).params[n] == specs[n]
 
 
-def test_readme_prior_table_is_the_catalogue():
-    # the README's "Default priors" table is documentation users rely on: it must state the priors
+def test_documented_prior_table_is_the_catalogue():
+    # the "Default priors" table of docs/physics.md is documentation users rely on: it must state the priors
     # the code uses (every "name(s) | unit | log-uniform LO .. HI" cell triple of the table)
     import re
     from pathlib import Path
@@ -82,7 +82,7 @@ def test_readme_prior_table_is_the_catalogue():
     from bayes_emt.inference.likelihood import NOISE_PARAMS, NU_SPEC
     from bayes_emt.models import param_spec
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    text = (Path(__file__).resolve().parents[1] / "docs" / "physics.md").read_text(encoding="utf-8")
     table = text.split("## Default priors", 1)[1].split("\n## ", 1)[0]
     noise = {s.name: s for s in (*NOISE_PARAMS, *PHYSICAL_PARAMS)} | {"nu": NU_SPEC}
     seen = set()

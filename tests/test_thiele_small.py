@@ -208,7 +208,7 @@ def test_report_puts_ts_first_and_groups_warnings(tmp_path):
                       models_for_spread=[])
     ts.save(tmp_path / "ts.json")
     msg = ("UD cannot describe these data: the residuals are up to 289 times the noise level; largest in "
-           "10–40.38 Hz (62.83–253.7 rad/s); try: enclosure_port or second_resonance, SPEC §7")
+           "10–40.38 Hz (62.83–253.7 rad/s); try: enclosure_port or second_resonance")
     fits = {m: {"model": "I", "parameters": {"zeta": 0.1, "omega0": 250.0, "phi": 50.0, "R0": 5.0,
                                             "L0": 1e-3},
                 "rms_rel_residual": 0.01, "warnings": [{"code": "model_inadequate", "message": msg}]}

@@ -1,4 +1,4 @@
-"""Physical parameters from an added-mass pair of recordings (SPEC §3.4, the paper's Appendix B).
+"""Physical parameters from an added-mass pair of recordings (the source paper's Appendix B).
 
 The terminals alone give ``ω0``, ``ζ`` and the mass-normalised coupling ``φ̄ = φ/√m``; a second
 recording with a known mass change ``Δm`` [kg] (``m' = m + Δm``) separates ``m``:
@@ -37,7 +37,7 @@ from ..params import LogUniform, ParamSet, ParamSpec
 __all__ = ["physical_from_two_fits", "mechanics_from_physical", "fit_added_mass", "JointModel",
            "AddedMassResult", "PHYSICAL_NAMES", "PHYSICAL_UNITS", "PHYSICAL_PARAMS"]
 
-#: the physical parameters an added-mass pair separates (SPEC §3.4), with their default priors:
+#: the physical parameters an added-mass pair separates, with their default priors:
 #: log-uniform over ten decades or more, bracketing a 1 cm tweeter to the paper's 2 kg shaker
 PHYSICAL_PARAMS = ParamSet([
     ParamSpec("m", "kg", r"$m$", LogUniform(1e-6, 1e4), "moving mass"),
@@ -234,7 +234,7 @@ class AddedMassResult:
     message: str = ""
 
     def to_json_dict(self) -> dict:
-        """The ``bayes-emt added-mass --json`` record (SPEC §6 names, SI units)."""
+        """The ``bayes-emt added-mass --json`` record (SI units)."""
         units = {**PHYSICAL_UNITS, **{n: self.model.params[n].unit for n in self.values
                                       if n not in PHYSICAL_UNITS}}
         rec = {"method": "joint", "model": self.model.spec, "rings": self.model.rings,
@@ -286,7 +286,7 @@ def fit_added_mass(base: Measurement, loaded: Measurement, delta_m: float, model
     ----------
     base, loaded : the recordings without and with the added mass (rad/s, S).
     delta_m : mass added for ``loaded`` [kg] (negative: removed).
-    model : the coil model both runs share (SPEC §2).
+    model : the coil model both runs share.
     base_fit, loaded_fit : separate fits of each run with ``model``; by default
         :func:`~bayes_emt.estimation.fitting.fit_admittance` from its automatic initial estimate. They
         should be optima of the relative residuals (as ``fit_admittance`` returns): they set
@@ -305,7 +305,7 @@ def fit_added_mass(base: Measurement, loaded: Measurement, delta_m: float, model
     A joint fit exposes what separate fits hide. The paper's Tables 5 and B.8 give
     ``m = 1.73 kg`` and ``φ = 2.51 N/A`` (Table B.9) from the base run's ``φ̄ = 1.91``, but then the
     loaded run (``m − 0.645 kg``) should show ``φ̄' = 2.51/√1.085 ≈ 2.41``, not the reported 2.26
-    (SPEC §5), and ``ζ'`` should be ``c/(2√(m'k)) ≈ 0.0138``, not 0.00927: no single ``(m, c, k, φ)``
+    (its Table B.9), and ``ζ'`` should be ``c/(2√(m'k)) ≈ 0.0138``, not 0.00927: no single ``(m, c, k, φ)``
     explains both tables, which the joint fit's residuals and :attr:`AddedMassResult.consistency`
     show where the formulas silently return the base run's values.
     """

@@ -1,4 +1,4 @@
-"""Joint posterior of an added-mass pair: both recordings sampled with shared physics (SPEC §3.4).
+"""Joint posterior of an added-mass pair: both recordings sampled with shared physics.
 
 One parameter vector ``(m, c, k, phi_raw, R0, coil..., noise of each run)`` explains both
 recordings: the base run sees the moving mass ``m``, the loaded run ``m + Δm``

@@ -7,7 +7,7 @@ into the recording's result folder:
 ``fit``        ``fit.json``: the least-squares fit (:meth:`FitResult.to_json_dict`)
 ``sample``     ``posterior.nc`` (ArviZ DataTree), ``posterior.json``; the emcee
                checkpoint ``posterior.h5`` is kept, so a killed run resumes its chain
-``diagnose``   ``diagnosis.json`` (issue 13; a clear per-file error in a build without
+``diagnose``   ``diagnosis.json`` (a clear per-file error in a build without
                :mod:`bayes_emt.discovery`)
 =============  =====================================================================
 
@@ -214,11 +214,11 @@ def _ts_summary(fit, post=None) -> dict:
 
 def _diagnose(meas, model, folder: Path, settings) -> dict:
     try:
-        from .. import discovery  # noqa: F401  (issue 13; absent from builds without it)
+        from .. import discovery  # noqa: F401  (absent from builds without it)
         from ..discovery import diagnose
     except ImportError:
-        raise DiagnoseUnavailable("diagnose is not available in this build (bayes_emt.discovery, "
-                                  "issue 13, is not installed); run with --jobs fit,sample") from None
+        raise DiagnoseUnavailable("diagnose is not available in this build (bayes_emt.discovery "
+                                  "is not installed); run with --jobs fit,sample") from None
     from ..io.paramfile import write_json
 
     rec = diagnose(meas, model, seed=settings.seed).to_json_dict()

@@ -1,8 +1,8 @@
-"""Discrepancy discovery (issue 13): where a model and a recording differ, what physics is missing.
+"""Discrepancy discovery: where a model and a recording differ, what physics is missing.
 
 :mod:`.locate` finds bands of significant, structured mismatch (a scan calibrated by simulation
 from the fitted model, family-wise false-alarm rate controlled); :mod:`.candidates` says which
-catalogue physics (SPEC §7) could act there, including the eddy-current escalation of the coil
+catalogue physics could act there, including the eddy-current escalation of the coil
 model; :mod:`.name` fits them, ranks them by evidence and by how much they whiten the band;
 :mod:`.shape` describes what nothing explains; :mod:`.diagnose` repeats until no significant
 mismatch remains and returns a frozen :class:`Diagnosis`.

@@ -1,4 +1,4 @@
-"""Which catalogue physics (SPEC §7) could explain a located band, and the eddy-current escalation.
+"""Which catalogue physics could explain a located band, and the eddy-current escalation.
 
 A term is a candidate for a band when its signature acts there (relative to the mechanical
 resonance ``ω_r`` the data shows), by the band class every registered augmentation declares
@@ -42,7 +42,7 @@ def physics_in_band(band_class: str) -> tuple[str, ...]:
 
 
 def candidate_physics(band: Band, model: Model, omega_r: float | None) -> list[str]:
-    """Physics ids (SPEC §7) whose signature can act in ``band``, for a model already holding
+    """Physics ids of the catalogue whose signature can act in ``band``, for a model already holding
     ``model``'s terms (module docstring); ``omega_r`` [rad/s] the resonance (``None``: every id).
     The eddy-current escalation comes last (NL fits are the slowest: a time budget cuts it rather
     than the cheap catalogue terms), and only when ``model``'s coil model has a rung above it and

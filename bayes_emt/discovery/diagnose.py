@@ -208,7 +208,7 @@ class Diagnosis(Record):
                 "per decade of frequency)")
 
     def to_json_dict(self) -> dict:
-        """The ``bayes-emt diagnose --json`` record (issue 13's schema)."""
+        """The ``bayes-emt diagnose --json`` record (its schema: the docs' Discovery page)."""
         return {
             "baseline_model": self.baseline_model,
             "final_model": self.final_model,
@@ -511,8 +511,8 @@ def r0_move_warning(before: FitResult, after: FitResult, limit: float = R0_MOVE_
     return (
         f"R0 moved {100 * d['relative_change']:+.1f} % ({d['before']:.4g} -> {d['after']:.4g} ohm) from "
         f"the baseline {before.model.label} to the final {after.model.label}: these data do not pin the "
-        "DC resistance apart from the added physics; measure it with an ohmmeter and give it as an R0 "
-        "prior (`fit`/`sample --priors`) before trusting R0-sensitive results (a negative-resistance "
+        "DC resistance apart from the added physics; measure it with an ohmmeter and give the "
+        "reading (`--re OHM`) before trusting R0-sensitive results (a negative-resistance "
         "shunt cancels most of R0)"
     )
 
@@ -796,7 +796,7 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
             )
         say(findings[-1].explanation)
         fit, lz = c.fit, c.log_z
-    # issue 23: a patch whose values the rounds do not agree on is flagged, dropped when not needed
+    # a patch whose values the rounds do not agree on is flagged, dropped when not needed
     findings, fit, lz, stab = stability_review(meas, findings, fit, lz, lambda m, v: fit_admittance(
         meas, m, initial=v), lambda f: log_evidence(meas, f))
     warn.extend(stab)

@@ -1,4 +1,4 @@
-"""Joint evidence (issue 23): the physics a diagnosis names must explain a second recording too.
+"""Joint evidence: the physics a diagnosis names must explain a second recording too.
 
 A diagnosis of recording A names terms; a second recording B of the same transducer (a known added
 mass ``Δm`` [kg], or the same driver at another drive level or session: ``Δm`` ``None``) must need

@@ -82,7 +82,7 @@ STARTS_POLISHED = 3
 class Candidate:
     """One tried explanation of a band.
 
-    ``physics`` the SPEC §7 id; ``fit`` its least-squares fit; ``log_z`` its Laplace log evidence
+    ``physics`` the catalogue id; ``fit`` its least-squares fit; ``log_z`` its Laplace log evidence
     [nats] (``evidence_method`` ``"laplace"``, or ``"laplace_subspace"``: the fallback of
     :mod:`.evidence`, ``evidence_note`` why and what it did); ``delta_log_z`` against the current
     model; ``chi2_band_before``/``after`` the band's

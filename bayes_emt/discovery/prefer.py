@@ -1,4 +1,4 @@
-"""Right physics before flexible physics (issue 23): setups, patch terms, and where a finding acts.
+"""Right physics before flexible physics: setups, patch terms, and where a finding acts.
 
 Brynjarsdóttir & O'Hagan (2014): a flexible term absorbs whatever misfit a model leaves, the fit
 improves and the physics gets worse. Discovery therefore treats the terms a registry class marks

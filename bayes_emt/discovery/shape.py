@@ -3,7 +3,7 @@
 Over the band, the complex relative residual ``e(ω) = (Y_meas − Y_model)/Y_model`` is fitted by
 ``e(s) ≈ (a0 + a1 x + a2 x²)/(1 + b1 x + b2 x²)`` with ``x = s/ω_c`` (``ω_c`` the band's geometric
 centre), by Levy's linearisation (one real linear least-squares problem,
-``min Σ |num(x_k) − den(x_k) e_k|²``, SPEC §3.1). Its poles and zeros [rad/s] say what kind of
+``min Σ |num(x_k) − den(x_k) e_k|²``; Levy 1959). Its poles and zeros [rad/s] say what kind of
 feature the residual is (a complex pole pair: a resonance; real poles: a relaxation; a step: a pole
 and zero close together), in words a user can act on.
 """

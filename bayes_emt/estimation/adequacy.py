@@ -53,7 +53,7 @@ Calibration (``scripts/calibrate_adequacy.py --seeds 20``, stored in
 * adequate fits, the model that simulated the data: NL(5) at Table 5, UD at Table 4 and I at
   Table 1, 20 seeds each, plus the bundled dataset with NL(5) — 61 fits: ``max ρ_k`` 1.16–1.40,
   runs ``z`` −2.49…+2.50, ``model_inadequate`` fired 0 times (nor any other code);
-* a driver in a vented box (tests/vented_box.py, SPEC §7 ``enclosure_port``; four
+* a driver in a vented box (``enclosure_port`` simulated; four
   loudspeaker-like parameter sets: fs 30–58 Hz, port 25–45 Hz, R0 3.3–6.8 Ω; noise 0.2, 0.5 and
   1 %) fitted with UD and NL(5) — 24 fits: ``max ρ_k`` 69–711, ``z`` −62.9…−52.8, fired 24 times
   (parameter_at_bound in 7 of them, not_identifiable in 12: the NL fits push R0 or rings to
@@ -195,10 +195,10 @@ def _advice(model: Model, theta: np.ndarray, omega: np.ndarray, where: np.ndarra
     if lo < 10 * w0:
         tips.append("near the mechanical resonance: a second resonance (a vented box or passive "
                     "radiator: enclosure_port; a rocking or fixture mode: second_resonance) or "
-                    "suspension creep, SPEC §7; fit the driver in free air, or restrict the band")
+                    "suspension creep; fit the driver in free air, or restrict the band")
     if hi > 3 * w0:
         tips.append("in the coil's band: a richer eddy-current model (UD, or NL with more rings), "
-                    "semi-inductance or winding capacitance, SPEC §7")
+                    "semi-inductance or winding capacitance")
     return "; ".join(tips) or "try a richer model"
 
 

@@ -1,6 +1,6 @@
 """Starting an augmented model from its base fit: each catalogue term proposes its own starts.
 
-An augmentation (SPEC §7) is started from the fit of the model without it and the term's own
+An augmentation (a catalogue term) is started from the fit of the model without it and the term's own
 :meth:`~bayes_emt.models.term.Term.start` (a multi-start over the frequency where it acts, from
 the base fit's misfit; a start may also move base parameters, e.g. a vented box's driver
 resonance). The candidates are validated inside the prior support and ranked by the rms relative

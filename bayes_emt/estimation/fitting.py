@@ -1,4 +1,4 @@
-"""Two-step weighted nonlinear least squares (SPEC §3.2), then an honest covariance.
+"""Two-step weighted nonlinear least squares, then an honest covariance.
 
 Residuals ``W(jω) (Y_model − Y_meas)`` are stacked as real and imaginary parts and minimised
 with ``scipy.optimize.least_squares`` (trust-region reflective) in sampling space (log of
@@ -7,7 +7,7 @@ positive parameters, bounded by the prior support), from the automatic initial e
 
 0. *start-up*: all parameters, relative residuals ``(Y_model − Y_meas)/|Y_meas|``, from the
    initial estimate and its runners-up (the best end point goes on; NL: from a UL fit through the
-   UL formulas, SPEC §3.1, and from the unfitted uniform-ring estimate). This converges fast and
+   UL formulas, and from the unfitted uniform-ring estimate). This converges fast and
    robustly from a linearised estimate, so the paper's steps start near their own optima;
 1. all parameters with ``W = 1/(jω)`` (emphasises the resonance); ``R0`` and ``ω0`` are kept;
 2. the others with ``W = 1`` (the paper's procedure, MATLAB ``lsqnonlin`` there);
@@ -236,7 +236,7 @@ def _starts(meas: Measurement, model: Model, initial, max_nfev, reuse=None):
                  "base_rms_rel_residual": prev_fit.rms_rel_residual, "alternatives": len(starts) - 1})
     surrogates = [(t, t.surrogate()) for t in model.terms if t.surrogate() is not None]
     if surrogates:
-        # SPEC §3.1: NL starts from the uniform-core estimate through the UL formulas; fitting
+        # as in the source paper: NL starts from the uniform-core estimate through the UL formulas; fitting
         # UL (3 coil parameters) first puts the 2n+1 ring parameters much closer. UL misfits
         # strongly non-uniform cores, and its fit can then settle on a wrong plant: the unfitted
         # estimate is a second start
@@ -335,7 +335,7 @@ def fit_admittance(meas: Measurement, model: Model, *, initial=None,
                    omega_range: tuple[float | None, float | None] | None = None,
                    polish: bool = True, max_nfev: int | None = None,
                    re=None, warm: bool = False, reuse: dict | None = None) -> FitResult:
-    """Fit ``model`` to ``meas`` from the automatic initial estimate (SPEC §3.1–3.2).
+    """Fit ``model`` to ``meas`` from the automatic initial estimate.
 
     Parameters
     ----------

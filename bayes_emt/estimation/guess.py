@@ -1,4 +1,4 @@
-"""Automatic initial estimate (SPEC §3.1): no user guess, from the data alone.
+"""Automatic initial estimate (Levy 1959; Sanathanan & Koerner 1963): no user guess, from the data alone.
 
 Two linear least-squares stages, then a check:
 
@@ -26,7 +26,7 @@ Two linear least-squares stages, then a check:
    approximation (:func:`~bayes_emt.models.terms.bessel_eddy_rational`, linear in
    ``(α, c2, c1, R0)``) and from a scan over decades whose distinct local minima all become
    candidates (non-negative linear least squares at every grid point). NL starts from the
-   uniform-core (UL) estimate through the UL formulas (SPEC §2).
+   uniform-core (UL) estimate through the UL formulas.
 
 Candidates: every band's plant, plus one from the resonance peak's height and width, each with
 every coil estimate. Each is validated (finite, positive, moved strictly inside the prior
@@ -248,7 +248,7 @@ def _coil_candidates(meas: Measurement, model: Model, plant, cache=None) -> list
 
 def _surrogate_model(model: Model):
     """``(model to estimate, convert)``: terms with a coarser surrogate replaced by it (NL's ring
-    ladder by uniform rings, SPEC §3.1), and ``convert(theta_est) -> theta`` mapping back."""
+    ladder by uniform rings), and ``convert(theta_est) -> theta`` mapping back."""
     est, conv = model, []
     for t in model.terms:
         sur = t.surrogate()
@@ -368,7 +368,7 @@ def _global_stage(meas, model, bases, rng):
 
 def find_initial_estimate(meas: Measurement, model: Model, *, band: tuple[float, float] | None = None,
                           seed: int = 0) -> InitialEstimate:
-    """Automatic initial estimate of ``model``'s parameters from ``meas`` (SPEC §3.1), with its
+    """Automatic initial estimate of ``model``'s parameters from ``meas``, with its
     provenance.
 
     Parameters
@@ -442,7 +442,7 @@ def _base_estimate(meas: Measurement, model: Model, band, seed) -> InitialEstima
 
 def initial_estimate(meas: Measurement, model: Model, *, band: tuple[float, float] | None = None,
                      seed: int = 0) -> np.ndarray:
-    """Automatic initial estimate (SPEC §3.1): physical ``theta`` [SI] in ``model.names`` order.
+    """Automatic initial estimate: physical ``theta`` [SI] in ``model.names`` order.
 
     See :func:`find_initial_estimate` for the parameters and for the provenance record.
     """

@@ -1,4 +1,4 @@
-"""Ring count for NL by Hankel singular values (SPEC §3.3).
+"""Ring count for NL by Hankel singular values.
 
 The blocked admittance ``Yb(s) = 1/(Z_NL(s) + R0)`` of an n-ring fit has ``n + 1`` states. Its
 Hankel singular values (HSV) ``σ_1 ≥ … ≥ σ_{n+1}`` [S] measure how much each state of a balanced

@@ -78,7 +78,7 @@ class FitResult(Record):
         return out
 
     def to_json_dict(self) -> dict:
-        """The ``bayes-emt fit --json`` record (SPEC §6 names, SI units)."""
+        """The ``bayes-emt fit --json`` record (SI units)."""
         return {
             **param_record(self.model, self.theta),
             "stderr": {k: (None if not np.isfinite(v) else v) for k, v in self.stderr.items()},

@@ -1,4 +1,4 @@
-"""Model comparison by evidence (issue 11).
+"""Model comparison by evidence.
 
 Two independent estimators of log Z with different failure modes, each with its error: nested
 sampling (:mod:`.nested`, dynesty with batched likelihood calls, :mod:`.batching`), by default with

@@ -28,7 +28,7 @@ parameters), against bridge sampling's 2640.60 ± 0.02 nats: 27 walks gave −4.
 (n_live 100). On a correlated 7-D Gaussian in a wide box (H = 61 nats), 27 walks are unbiased
 (+0.6, +0.3, −0.3 standard errors), so the bias is the target's geometry, not the sampler code.
 The cost is ``≈ n_live · H · walks`` calls: about 0.6 M for model I (H ≈ 55 nats).
-Known failure of runs from the prior (issue 11, acceptance 1): a 15-D product of log-normals
+Known failure of runs from the prior: a 15-D product of log-normals
 under uniform priors (skewed, mass near the cube's corner) comes out low with these defaults:
 (log Z − truth)/logzerr = −7.2, −12.4, −0.6, −2.9, −6.0 for seeds 1, 2, 3, 4, 7, while the
 correlated Gaussian in a box and the linear-Gaussian at 15-D pass with the same settings

@@ -1,6 +1,6 @@
 """Frozen result records of a model comparison, with the JSON form of ``bayes-emt compare``.
 
-JSON schema (issue 11), with extra fields after the required ones::
+JSON schema, with extra fields after the required ones::
 
     {"models": [{"name", "rings", "log_evidence", "log_evidence_err",
                  "by_method": {method: {"log_evidence", "err", ...}},
@@ -26,7 +26,7 @@ from .scale import SCALE_REFERENCE, bayes_factor, verbal
 
 __all__ = ["ModelEvidence", "Comparison", "combine_methods", "DISAGREEMENT_NATS"]
 
-DISAGREEMENT_NATS = 1.0  # estimators further apart than this are flagged (issue 11)
+DISAGREEMENT_NATS = 1.0  # estimators further apart than this are flagged
 _COMBINED = ("nested", "bridge")
 
 

@@ -1,4 +1,4 @@
-"""The NL ring count by evidence, beside the Hankel-singular-value choice (SPEC §3.3).
+"""The NL ring count by evidence, beside the Hankel-singular-value choice.
 
 Given the evidences of NL(n) for several n, the choice is the smallest n whose log Z is within
 ``tolerance`` (1 nat: the inconclusive band of :mod:`.scale`) of the largest: a ring the data

@@ -27,7 +27,7 @@ that holds no step (a run stopped before its first block: a bad option, an inter
 without ``overwrite``, and :func:`~bayes_emt.inference.sampling.run_ensemble` removes a
 checkpoint it created when it fails before storing a step.
 
-Faults (issue 24). A run holds :class:`CheckpointLock` (``flock`` on a hidden ``.NAME.lock`` beside
+Faults. A run holds :class:`CheckpointLock` (``flock`` on a hidden ``.NAME.lock`` beside
 the checkpoint, removed at the end; the kernel drops it if the process dies) for its whole
 duration, so a second run on the same checkpoint is refused in one line instead of racing the
 first one's writes (HDF5's own locking is off, see above). Every HDF5 failure (a corrupted or

@@ -1,6 +1,6 @@
 """The posterior: a frozen record of thinned draws with diagnostics, and its ArviZ ``DataTree``.
 
-Draws are stored in physical units (SPEC §6 names), walkers as ``chain`` and kept steps as
+Draws are stored in physical units (the documented names), walkers as ``chain`` and kept steps as
 ``draw`` (the ``draw`` coordinate is the sampler step, so burn-in and thinning stay visible).
 Burn-in is ``⌈2 τ_max⌉`` steps; the thinning ``⌊τ_min/2⌋`` or more, so that at most
 ``max_draws`` draws are kept: this is ``az.from_emcee(...).isel(draw=slice(burn, None, thin))``
@@ -366,7 +366,7 @@ def stored_record(dt, names) -> dict:
 def physical_from_pair(base: Posterior, loaded: Posterior, delta_m: float, *,
                        seed: int = 0) -> dict[str, np.ndarray]:
     """Posterior draws of the physical ``m, c, k, phi_raw`` [kg, N s/m, N/m, N/A] from an
-    added-mass pair (SPEC §3.4): ``m = Δm ω0'²/(ω0² − ω0'²)``, ``k = m ω0²``, ``c = 2 ζ m ω0``,
+    added-mass pair (paper, Appendix B): ``m = Δm ω0'²/(ω0² − ω0'²)``, ``k = m ω0²``, ``c = 2 ζ m ω0``,
     ``φ = φ̄ √m``, with ``ζ, ω0, φ̄`` of the base run and ``ω0'`` of the run with ``delta_m`` [kg]
     added.
 

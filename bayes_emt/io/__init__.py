@@ -1,6 +1,6 @@
 """Reading and writing measurement files.
 
-Formats met in practice (SPEC §6), told apart by suffix and content, never by guessing:
+Formats met in practice (see File formats), told apart by suffix and content, never by guessing:
 
 * ``.zma``: frequency [Hz], |Z| [Ω], phase [deg] by the format's convention; ``*`` header lines;
   tab- or space-separated; sometimes no header at all.

@@ -21,7 +21,7 @@ PAPER_BENCH_SEED = 20261122
 PAPER_BENCH_NOISE = 0.002
 CONCEALED_BENCH_SEED = 20261123
 CONCEALED_BENCH_NOISE = 0.002
-#: The effect concealed in ``concealed_bench.csv`` (SPEC §7 ``second_resonance``): a fixture mode at
+#: The effect concealed in ``concealed_bench.csv`` (the catalogue's ``second_resonance``): a fixture mode at
 #: omega2 = 2500 rad/s (398 Hz), damping ratio 0.02, coupling 3.87 N/(A kg^0.5) (peak ~0.15 ohm).
 CONCEALED_BENCH_EFFECT = {"zeta2": 0.02, "omega2": 2500.0, "phi2": 3.87}
 

@@ -3,7 +3,7 @@
 Curve files (text, one point per line, frequency ascending, ``*`` comment lines first):
 
 * ``.zma``: frequency [Hz], |Z| [Ω], phase [deg] — the impedance format of LspCAD, LEAP,
-  VituixCAD, XSim, ARTA/LIMP exports (SPEC §6 describes the variants met in practice; the
+  VituixCAD, XSim, ARTA/LIMP exports (the File formats page describes the variants met in practice; the
   package's own reader reads it back, :func:`bayes_emt.io.read_measurement`).
 * ``.frd``: frequency [Hz], magnitude [dB], phase [deg] — the frequency-response layout the same
   tools use (a public discussion of its conventions: "Sound, Vibration and a Little Noise | .FRD

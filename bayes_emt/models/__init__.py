@@ -1,5 +1,5 @@
 """Transducer models: pure physics kernels (``terms``), the terms that own their behaviour
-(``term``, ``catalogue`` for the paper's, ``physics/`` for SPEC §7's, one per module), the
+(``term``, ``catalogue`` for the paper's, ``physics/`` for the catalogue's, one per module), the
 registry (``register_term`` for a term defined elsewhere), the model composed from terms, specs
 (``UD+winding_capacitance``) and the Foster form."""
 

@@ -1,9 +1,9 @@
-"""The paper's terms: the motional branch, the coil resistance and the coil models (SPEC §1–2).
+"""The paper's terms: the motional branch, the coil resistance and the coil models (docs: Physics).
 
 Each coil term carries its parameters with their priors, its own start
 (:class:`~bayes_emt.models.term.CoilStart`: the columns and the one nonlinear parameter the linear
 coil stage of the initial estimate scans), its Foster form and its serialised id; the augmentations
-of SPEC §7 live one per module in :mod:`bayes_emt.models.physics`. The six base models are made of
+of the catalogue live one per module in :mod:`bayes_emt.models.physics`. The six base models are made of
 these terms (:data:`~bayes_emt.models.registry.BASE_MODELS`), several sharing a parameter (``L0``,
 ``Lg``, ``alpha``, ``beta``): each such spec is declared once here.
 
@@ -270,7 +270,7 @@ class RingLadder(_Rings):
         return FosterPart(G=float(gap), L=Lk, tau=tau)
 
     def surrogate(self):
-        """Uniform rings (UL): three coil parameters put the 2n+1 ring parameters close (SPEC §3.1)."""
+        """Uniform rings (UL): three coil parameters put the 2n+1 ring parameters close."""
         n, N = self.n_rings, self.n_turns
 
         def convert(p):
@@ -285,7 +285,7 @@ class RingLadder(_Rings):
 
 @dataclass(frozen=True)
 class UniformRings(_Rings):
-    """Model UL: a uniform core with an air gap, eddy currents lumped in equal-area rings (SPEC §2)."""
+    """Model UL: a uniform core with an air gap, eddy currents lumped in equal-area rings."""
 
     id = "uniform_rings"
     description = "uniform core, air gap, eddy currents lumped in n equal-area rings (UL)"

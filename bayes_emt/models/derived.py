@@ -3,7 +3,7 @@ mechanical quality factor, the coil's low-frequency inductance.
 
 Each entry of :data:`DERIVED` is ``name → (unit, description, f(model, theta (..., k)) → (...))``,
 vectorised over parameter sets; :func:`derived_values` evaluates them for one vector.
-``fs = ω0/(2π)`` [Hz] and ``Qms = 1/(2ζ)`` [1] are the plant's own resonance and damping (SPEC §1);
+``fs = ω0/(2π)`` [Hz] and ``Qms = 1/(2ζ)`` [1] are the plant's own resonance and damping (docs: Physics);
 under a frequency-dependent compliance (suspension creep) they are the model's ω0 and ζ, not the
 Thiele–Small definitions at the impedance maximum. Those are :func:`mechanical_resonance`'s: the
 resonance of the mechanical impedance with every stiffness term (``Im Zm(jωs) = 0``) and all its loss

@@ -1,4 +1,4 @@
-"""Closed-form linearisations the terms use to start themselves (SPEC §3.1).
+"""Closed-form linearisations the terms use to start themselves (Levy 1959; Sanathanan & Koerner 1963).
 
 Small real least-squares problems on complex data: the paper's first-order rational Bessel
 approximation for the eddy-current diffusion time ``α``, and its linearisation of model II's
@@ -33,7 +33,7 @@ def lstsq_real(A, b, w):
 
 
 def rational_alpha(s, Ze, w, with_gap: bool):
-    """``α`` [s] from the paper's first-order rational approximation (SPEC §3.1)
+    """``α`` [s] from the paper's first-order rational approximation
     ``Z_III ≈ k s (α s + 8)/(4 α s + 16)``, ``k = β sqrt(α)`` (plus ``Lg s`` and ``R0``):
     ``16 Ze = −4 α s Ze + c2 s² + c1' s + 16 R0`` is linear in ``(α, c2, c1', R0)``, with
     ``c1' = 8k + 16 Lg + 4 α R0`` and ``c2 = (k + 4 Lg) α``. The approximation holds for

@@ -33,7 +33,7 @@ __all__ = ["Model", "Loop", "JwForm"]
 class Loop:
     """The plant as the shunt sees it, at frequencies ``s``: arrays ``(..., F)`` (``phi`` ``(...)``).
 
-    ``G(s) = (1/m) / (mech + φ̄² s / (z_series + Zx))`` (SPEC eq. 50 generalised) with ``Zx`` the
+    ``G(s) = (1/m) / (mech + φ̄² s / (z_series + Zx))`` (the source paper's eq. 50 generalised) with ``Zx`` the
     external network across the terminals: the shunt in parallel with ``y_parallel``.
 
     Attributes

@@ -37,7 +37,7 @@ __all__ = ["TERMS", "AUGMENTATIONS", "BASE_MODELS", "MODEL_NAMES", "make_term", 
 #: every term class by its serialised id, in registration order (:func:`register_term`)
 TERMS: dict[str, type[Term]] = {}
 
-#: the paper's six models (SPEC §2) by their coil terms; every model starts with motional + R0
+#: the paper's six models by their coil terms; every model starts with motional + R0
 BASE_MODELS: dict[str, tuple[str, ...]] = {
     "I": ("inductance",),
     "II": ("lossy_inductance",),
@@ -55,7 +55,7 @@ _BUILTIN_IDS: set[str] = set()
 
 
 class _Augmentations(Sequence[str]):
-    """The ids of the registered augmentations (SPEC §7 and any registered at run time), in
+    """The ids of the registered augmentations (the catalogue and any registered at run time), in
     registration order; a live view, so that a term registered later is seen by every importer."""
 
     def __getitem__(self, i):
@@ -79,7 +79,7 @@ class _Augmentations(Sequence[str]):
         return tuple(i for i, c in TERMS.items() if c.augmentation)
 
 
-#: the catalogue of SPEC §7 that a model spec may add to a base model (``UD+winding_capacitance``)
+#: the physics catalogue that a model spec may add to a base model (``UD+winding_capacitance``)
 AUGMENTATIONS: Sequence[str] = _Augmentations()
 
 

@@ -1,4 +1,4 @@
-"""Model specs: the paper's six models by name, augmented ones as ``BASE+term+term`` (SPEC §7),
+"""Model specs: the paper's six models by name, augmented ones as ``BASE+term+term`` (the physics catalogue),
 and models rebuilt from their serialised form.
 
 ``UD+second_resonance+suspension_creep`` is model UD with two catalogue terms; ``NL(7)`` or
@@ -19,21 +19,21 @@ from .registry import AUGMENTATIONS, BASE_MODELS, MODEL_NAMES, make_term, term_f
 __all__ = ["build_model", "parse_model_spec", "model_from_dict", "eddy_escalations", "EDDY_LADDER",
            "EDDY_PHYSICS", "EDDY_BAND", "DEFAULT_N_TURNS", "DEFAULT_RINGS"]
 
-#: the eddy-current escalation of the coil model (SPEC §7), lowest rung first
+#: the eddy-current escalation of the coil model, lowest rung first
 EDDY_LADDER: tuple[str, ...] = ("I", "II", "III", "UD", "NL")
 #: the physics id of that escalation (not a term: a change of the coil model up :data:`EDDY_LADDER`)
 #: and its band class (:data:`~bayes_emt.models.term.BANDS`): the coil's
 EDDY_PHYSICS = "eddy_current"
 EDDY_BAND = "coil"
 
-DEFAULT_N_TURNS = 480.0  # the paper's coil (SPEC §2)
-DEFAULT_RINGS = 5  # the paper's NL choice (SPEC §3.3)
+DEFAULT_N_TURNS = 480.0  # the source paper's coil
+DEFAULT_RINGS = 5  # the source paper's NL choice
 _RINGED = ("ring_ladder", "uniform_rings")
 _BASE = re.compile(r"^([A-Za-z]+)(?:\((\d+)\))?$")
 
 
 def build_model(name: str, *, rings: int | None = None, n_turns: float = DEFAULT_N_TURNS) -> Model:
-    """One of the paper's six models (SPEC §2), ``I, II, III, UD, NL, UL``, or a spec with
+    """One of the paper's six models (see Physics and conventions), ``I, II, III, UD, NL, UL``, or a spec with
     augmentations (:func:`parse_model_spec`).
 
     ``rings`` applies to NL and UL only (default 5); ``n_turns`` is the coil's turn count N.

@@ -3,7 +3,7 @@
 A :class:`Term` is a frozen record of its parameter specs (with priors) and its configuration
 (e.g. a ring count), plus class-level behaviour:
 
-* **its parameters** (:attr:`Term.parameters`): every spec it declares, name (SPEC §6), SI unit,
+* **its parameters** (:attr:`Term.parameters`): every spec it declares, name (as documented), SI unit,
   label and proper prior, the same for a name in every term that declares it (evidences of models
   sharing a parameter stay comparable); :func:`~bayes_emt.models.registry.param_spec` looks a name
   up among the registered terms;
@@ -34,7 +34,7 @@ A :class:`Term` is a frozen record of its parameter specs (with priors) and its 
 * for reports: a one-line physical description, its typical signature in the data, and the
   discrepancy-physics id it belongs to (``eddy_current`` for the coil terms).
 
-Stages (SPEC §1, §7; ``s = jω``; ``Y_mot`` the motional branch's admittance):
+Stages (see Physics and conventions; ``s = jω``; ``Y_mot`` the motional branch's admittance):
 
 ``stiffness``          multiplies the mechanical stiffness: ``ω0² → ω0² κ(s)`` (suspension creep)
 ``motional``           the primary mechanical branch itself: ``Y_mot = (s² + 2ζω0 s + ω0² κ)/(φ̄² s)``
@@ -206,7 +206,7 @@ class Term:
     coil: ClassVar[bool] = False
     #: device physics (False for instrument and measurement-session effects)
     device: ClassVar[bool] = True
-    #: an augmentation from the catalogue of SPEC §7 (False for the paper's base terms)
+    #: an augmentation from the physics catalogue (False for the paper's base terms)
     augmentation: ClassVar[bool] = False
     #: other terms' parameters :meth:`evaluate` reads (passed in ``other``)
     needs: ClassVar[tuple[str, ...]] = ()
@@ -217,7 +217,7 @@ class Term:
     parameters: ClassVar[tuple[ParamSpec, ...]] = ()
     #: an augmentation's band class (:data:`BANDS`): where discovery looks for its signature
     band: ClassVar[str] = ""
-    #: a generic, flexible patch (issue 23): discovery names it only with a margin of evidence over
+    #: a generic, flexible patch: discovery names it only with a margin of evidence over
     #: the physical terms for the same band, identifiable parameters and, with :attr:`step_at`, a
     #: discontinuity between adjacent measured points
     generic: ClassVar[bool] = False

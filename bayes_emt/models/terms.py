@@ -3,7 +3,7 @@
 Every function takes ``s`` (complex, any shape) and parameter arrays that broadcast against it,
 SI units only, and returns a complex impedance [ohm] (or admittance [S] where said). No I/O,
 no globals (bar one lazily built, read-only interpolation table). Equation numbers refer to the
-source paper as restated in SPEC.md §1–2.
+source paper (see Physics and conventions).
 
 Fast paths on the imaginary axis ``s = jω`` (what a likelihood evaluates, walkers × frequencies):
 
@@ -236,7 +236,7 @@ def bessel_eddy_jw(omega, alpha, beta) -> tuple[np.ndarray, np.ndarray]:
 
 
 def bessel_eddy_rational(s, alpha, beta):
-    """First-order rational approximation of model III used for the initial estimate (SPEC §3.1):
+    """First-order rational approximation of model III used for the initial estimate:
     ``β sqrt(α) s (α s + 8) / (4 α s + 16)``."""
     return beta * np.sqrt(alpha) * s * (alpha * s + 8.0) / (4.0 * alpha * s + 16.0)
 
@@ -324,7 +324,7 @@ LADDER_POLY_MAX_RINGS = 12
 
 
 def uniform_rings(Lg, alpha, beta, n_rings, n_turns):
-    """UL: the NL ring parameters of a uniform core cut into ``n`` equal-area rings (SPEC §2).
+    """UL: the NL ring parameters of a uniform core cut into ``n`` equal-area rings.
 
     ``Pg = Lg/N²``, ``Pj = β sqrt(α)/(2 N² n)``,
     ``Rj = β/(N² sqrt(α)) · sqrt(j)/(sqrt(j) − sqrt(j−1))``. Returns ``Pg (...), P (..., n), R (..., n)``.

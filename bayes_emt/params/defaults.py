@@ -1,7 +1,7 @@
 """The noise parameters every likelihood appends (``sigma_rel``, ``sigma_abs`` and, when sampled,
 ``nu``), identical for every model so that evidences of different models are comparable.
 
-The physics parameters' specs (SPEC §6 names, SI units, labels, proper priors) belong to the terms
+The physics parameters' specs (documented names, SI units, labels, proper priors) belong to the terms
 that declare them (:mod:`bayes_emt.models`; look one up by name with
 :func:`bayes_emt.models.param_spec`): ``params`` holds the mechanism, not the catalogue.
 """

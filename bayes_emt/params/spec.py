@@ -46,7 +46,7 @@ def clip_inside(z, lo, hi):
 
 @dataclass(frozen=True)
 class ParamSpec:
-    """One parameter: name (SPEC §6), SI unit, plot label, proper prior, description."""
+    """One parameter: name (as in Physics and conventions), SI unit, plot label, proper prior, description."""
 
     name: str
     unit: str

@@ -19,9 +19,9 @@ file                              written by / content
 ``posterior_corner.png``          corner plot (redrawn from ``.nc`` if absent)
 ``residuals.png``                 relative residuals of every fit over frequency
 ``shunts.json``                   H∞-optimal RC shunt per model, each evaluated on the best fit
-``robust_shunt.json``             ``shunt --posterior --json`` (issue 12 schema)
+``robust_shunt.json``             ``shunt --posterior --json``
 ``shunt_robust_*.png``            ``shunt --posterior --plot`` (gain bands, distributions, boundary)
-``diagnosis.json``                ``diagnose --json`` (issue 13 schema)
+``diagnosis.json``                ``diagnose --json``
 ``diagnosis_residuals.png``       residuals of the diagnosed recording with the flagged bands
 ``diagnosis/*.png``               ``diagnose --plot`` figures
 ================================  =============================================================

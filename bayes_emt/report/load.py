@@ -57,7 +57,7 @@ class RunFiles:
 
 
 def normalise_warning(w, source: str) -> dict:
-    """A warning as ``{"source", "code", "message"}`` from a string or an issue-9 ``{code, message}``."""
+    """A warning as ``{"source", "code", "message"}`` from a string or a ``{code, message}`` record."""
     if isinstance(w, dict):
         return {"source": source, "code": str(w.get("code") or ""), "message": str(w.get("message", w))}
     return {"source": source, "code": "", "message": str(w)}

@@ -185,7 +185,7 @@ def _unit_of(name: str, entry, units: dict[str, str]) -> str:
 
 def _param_rows(params: dict, units: dict[str, str], group: str = "") -> list[dict]:
     """A diagnosis finding's ``parameters`` as flat rows ``{group, name, value, stderr, before,
-    after, relative_change, unit}``: the issue-13 schema leaves their layout open (a number, a
+    after, relative_change, unit}``: the diagnosis schema leaves their layout open (a number, a
     ``{value, stderr, unit}`` record, or groups of those such as ``added`` / ``moved``)."""
     rows = []
     for name, v in params.items():
@@ -202,7 +202,7 @@ def _param_rows(params: dict, units: dict[str, str], group: str = "") -> list[di
 
 def ts_section(rf: RunFiles, run: dict | None) -> dict:
     """The Thiele–Small table: ``ts.json`` if saved (values, 90 % intervals, model spread), else
-    the free-air set at the best least-squares fit (SPEC §8 relations, no intervals)."""
+    the free-air set at the best least-squares fit (Small 1972 relations, no intervals)."""
     from ..thiele_small import read_thiele_small
     from ..thiele_small.relations import DISPLAY, NAMES, free_air
 

@@ -1,4 +1,4 @@
-"""Shunt damping design (SPEC §4): shunted receptance and its H∞ norm, the H∞-optimal RC shunt,
+"""Shunt damping design: shunted receptance and its H∞ norm, the H∞-optimal RC shunt,
 closed-loop stability (threshold in Rs, poles, pole count), the digital realisation, and design
 under uncertainty over posterior draws (:mod:`bayes_emt.shunt.robust`).
 

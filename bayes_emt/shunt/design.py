@@ -1,10 +1,10 @@
-"""H∞-optimal series RC shunt (SPEC §4): ``Zs = Rs + 1/(Cs s)`` minimising ``‖G_RC‖∞`` of (50).
+"""H∞-optimal series RC shunt: ``Zs = Rs + 1/(Cs s)`` minimising ``‖G_RC‖∞`` of (50).
 
 **Closed form (start).** Model I with ζ = 0 and net loop resistance ``R = R0 + Rs``:
 ``|m·G(jω)|² = (A² + R²ω²) / (B² + R²ω²(ω0² − ω²)²)`` with ``A = 1/Cs − L ω²``,
 ``B = (ω0² − ω²) A − φ̄² ω²``. Two frequencies are independent of R (Den Hartog's fixed points),
 the roots in ``x = ω²`` of ``2(ω0² − x)(1/Cs − L x) = φ̄² x``, where ``|m·G| = 1/|ω0² − x|``. Equal
-heights (``x_P + x_Q = 2ω0²``) give ``Cs = 2/(2 L ω0² − φ̄²)`` (SPEC §4). A horizontal tangent at a
+heights (``x_P + x_Q = 2ω0²``) give ``Cs = 2/(2 L ω0² − φ̄²)`` (Den Hartog 1956). A horizontal tangent at a
 fixed point needs ``R² = (φ̄²/(2D)) (φ̄² x/(2D) + 2 L D + φ̄²)`` with ``D = ω0² − x``; as Den Hartog,
 ``R² = (R_P² + R_Q²)/2``, so ``Rs = R − R0``. For the other models the coil is replaced by its
 equivalent series inductance and resistance at ω0, ``L = Im Zc(jω0)/ω0`` (the low-frequency
@@ -338,7 +338,7 @@ def _capacitive_threshold(model: Model, theta, grid) -> str | None:
 
 def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = None,
                     bandwidth: float | None = None, r0_uncertainty: dict | None = None) -> ShuntDesign:
-    """The H∞-optimal RC shunt for ``model`` at ``theta`` (SPEC §4, eq. 50; module docstring).
+    """The H∞-optimal RC shunt for ``model`` at ``theta`` (the source paper's eq. 50; module docstring).
 
     Cs is bounded above by ``Cs_max = 1e3/(L ω0²)`` (capacitive reactance at ω0 below 1e-3 of the
     coil's; the electrical resonance above ω0/32, inside the :class:`Plant` grid): a strongly

@@ -1,4 +1,4 @@
-"""Digital realisation of the RC shunt as a synthetic impedance (SPEC §4, eqs. 55–56).
+"""Digital realisation of the RC shunt as a synthetic impedance (the source paper's eqs. 55–56).
 
 ``Zs(s) = R_in + R_in K_in K_out K(s)``: the current is sensed over ``R_in`` and amplified by
 ``K_in``, the controller ``K`` runs on a DSP at ``fs``, its output drives the terminals through

@@ -112,8 +112,8 @@ def describe_r0(groups, group, plants, nom, rob) -> dict:
     out["statement"] = ("Stability depends on R0 (the negative Rs cancels most of it). "
                         + ". ".join(lines) + ". "
                         "A coil model that misses physics biases R0 (compare `fit --procedure paper` with "
-                        "the default fit), and an ohmmeter reading of the DC resistance given as an R0 prior "
-                        "(`sample --priors`) bounds that risk.")
+                        "the default fit), and an ohmmeter reading of the DC resistance given to the "
+                        "posterior (`sample --re OHM`) bounds that risk.")
     if len(groups) > 1:
         meds = {grp.label: float(np.median(R0[group == g])) for g, grp in enumerate(groups)}
         spread = max(meds.values()) - min(meds.values())

@@ -1,4 +1,4 @@
-"""Thiele–Small parameters with credible intervals (issue 22): free air, added mass (one or
+"""Thiele–Small parameters with credible intervals: free air, added mass (one or
 several masses in one joint posterior), added volume; the loudspeaker engineer's bench workflow.
 Sits beside :mod:`bayes_emt.discovery`, above the features it uses (added mass, inference,
 estimation)."""

@@ -1,5 +1,5 @@
 """Manufacturers' published Thiele–Small values of drivers recorded in ``../shared/realdata``, for
-comparison with what :func:`~bayes_emt.thiele_small.thiele_small` measures (issue 22, acceptance 2).
+comparison with what :func:`~bayes_emt.thiele_small.thiele_small` measures (the benchmark page of the docs).
 
 Each entry is SI (the units of :data:`~bayes_emt.thiele_small.relations.UNITS`) with its source.
 

@@ -1,4 +1,4 @@
-"""Thiele–Small parameters from the model's parameters (SPEC §8), vectorised over draws.
+"""Thiele–Small parameters from the model's parameters (Small 1972), vectorised over draws.
 
 Relations (R. H. Small, "Direct-radiator loudspeaker system analysis", JAES 20(5), 1972;
 A. N. Thiele, "Loudspeakers in vented boxes", JAES 19, 1971), with ``φ̄² = Bl²/Mms``:

@@ -144,9 +144,9 @@ def add_exclude_band_arg(p: argparse.ArgumentParser) -> None:
 
 
 def add_model_args(p: argparse.ArgumentParser, *, required: bool = True) -> None:
-    p.add_argument("--model", required=required, metavar="SPEC",
-                   help=f"model spec: a coil model ({', '.join(MODEL_NAMES)}, SPEC §2) optionally + physics "
-                        f"terms of SPEC §7 ({', '.join(AUGMENTATIONS)}), e.g. NL+winding_capacitance")
+    p.add_argument("--model", required=required, metavar="MODEL",
+                   help=f"model spec: a coil model ({', '.join(MODEL_NAMES)}) optionally + physics "
+                        f"terms ({', '.join(AUGMENTATIONS)}), e.g. NL+winding_capacitance")
     p.add_argument("--rings", type=int_at_least(1), default=None, help="rings for NL/UL (default 5)")
     p.add_argument("--n-turns", type=positive_float, default=480.0, help="coil turns N (NL/UL; default 480)")
 

@@ -1,4 +1,4 @@
-"""``bayes-emt added-mass BASE LOADED --delta-m KG --model M``: physical m, c, k, φ (SPEC §3.4).
+"""``bayes-emt added-mass BASE LOADED --delta-m KG --model M``: physical m, c, k, φ.
 
 Fits each recording separately, applies the paper's formulas (Appendix B) to the two fits, then
 fits both recordings jointly with shared m, c, k, φ, R0 and coil parameters (the base run sees m,

@@ -7,9 +7,9 @@
    estimator, a few seconds per model), the Laplace screen at its mode beside;
 3. keep the posterior of the model the evidence prefers (Bode bands, corner plot);
 4. design the H∞-optimal RC shunt per model, each evaluated on the best-fitting model, and push the
-   posterior through the shunt design for a robust choice (``shunt --posterior``, issue 12);
+   posterior through the shunt design for a robust choice (``shunt --posterior``);
 5. diagnose the residuals of the second bundled recording, which hides a second mechanical mode
-   (``diagnose``, issue 13); the diagnosis is not told about it;
+   (``diagnose``); the diagnosis is not told about it;
 6. write ``report.html`` (``bayes-emt report`` rebuilds it from the saved outputs).
 
 Every step calls a public verb of :mod:`bayes_emt.api` (``be.fit``, ``be.compare``, ``be.load``,
@@ -76,7 +76,7 @@ def register(sub) -> None:
     p = add_parser(sub, "demo", help="the whole chain on the bundled data, ending in report.html",
                    description=__doc__, examples=EXAMPLES)
     p.add_argument("--out", default="bayes_emt_demo", help="output folder (default ./bayes_emt_demo)")
-    p.add_argument("--quick", action="store_true", help="about 2 minutes: models I, II and NL only, 300-step "
+    p.add_argument("--quick", action="store_true", help="≈ 50 CPU s: models I, II and NL only, 300-step "
                    "chains, no Hankel ring choice, 200 draws for the robust shunt (the report says what "
                    "was cut)")
     p.add_argument("--data", default=None, help="measurement file instead of the bundled paper_bench.csv")

@@ -1,11 +1,11 @@
-"""``bayes-emt diagnose DATA [--model SPEC] [--json OUT] [--plot DIR]``: discrepancy discovery.
+"""``bayes-emt diagnose DATA [--model MODEL] [--json OUT] [--plot DIR]``: discrepancy discovery.
 
 Locates bands where the model and the recording differ beyond the noise (a scan whose family-wise
 false-alarm rate is calibrated by simulation from the fitted model), names the catalogue physics
-(SPEC §7) that explains each, adds it, and repeats until no significant mismatch remains. Without
+that explains each, adds it, and repeats until no significant mismatch remains. Without
 ``--model`` it starts from the base model the evidence prefers (I, II, III, UD by Laplace log Z).
 Prints each finding in plain words (band in Hz, Δ log Z in nats, the band's χ² before and after,
-parameters that moved) and what stays unexplained; ``--json`` writes the issue-13 record
+parameters that moved) and what stays unexplained; ``--json`` writes the diagnosis record
 (``final_model`` is a spec that fit, sample, added-mass and shunt accept), ``--plot`` the
 residuals before/after with the bands shaded and a Bode overlay.
 Exit status 0, or 1 when the result carries warnings, 2 on a user error.

@@ -1,5 +1,5 @@
 """``bayes-emt fit DATA --model M [--rings N] [--procedure polished|paper] [--json OUT]``: automatic
-initial estimate and two-step weighted least squares (SPEC §3.1–3.2); prints name, value, unit and
+initial estimate and two-step weighted least squares; prints name, value, unit and
 standard error of every parameter, the rms relative residual and chi², the fit's warnings (model
 inadequate, parameter at a bound, parameters not identifiable, resonance outside the data:
 :mod:`bayes_emt.estimation.adequacy`), and writes

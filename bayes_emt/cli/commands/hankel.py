@@ -1,4 +1,4 @@
-"""``bayes-emt hankel DATA``: NL ring count by Hankel singular values (SPEC §3.3).
+"""``bayes-emt hankel DATA``: NL ring count by Hankel singular values.
 
 Fits NL with ``--max-rings`` rings (default 7, as the paper), computes the Hankel singular values
 of the blocked admittance ``1/(Zc + R0)`` (``max_rings + 1`` states; modes a decade or more outside

@@ -43,7 +43,7 @@ TABLE7 = {"r_in": 0.0996, "k_in": 99.23, "k_out": 0.9846, "fs": 5000.0}
 
 def register(sub) -> None:
     p = add_parser(sub, "shunt", help="optimal RC shunt for a parameter file, or robust over posteriors "
-                   "(SPEC §4)", description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
+                   "(H∞-optimal)", description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
     p.add_argument("--params", default=None, metavar="P.json",
                    help='parameter file {"model", "rings"?, "parameters"} (as fit --json writes); with '
                         "--posterior: the point estimate of the nominal design")
@@ -64,7 +64,7 @@ def register(sub) -> None:
                    help="log evidence [nats] of each --posterior, in order (mixture weights)")
     p.add_argument("--compare", default=None, metavar="C.json",
                    help="bayes-emt compare JSON with the models' log evidences (mixture weights)")
-    p.add_argument("--model", default=None, metavar="SPEC",
+    p.add_argument("--model", default=None, metavar="MODEL",
                    help="optional check: the model (spec) the parameter file must hold")
     p.add_argument("--json", default=None, metavar="OUT", help="write the design as JSON here")
     p.add_argument("--evaluate-on", default=None, metavar="P2.json",

@@ -33,7 +33,7 @@ def register(sub) -> None:
                                "and write it as a measurement file.", examples=EXAMPLES)
     p.add_argument("--params", required=True, help='JSON {"model", "parameters"} (as fit --json writes)')
     p.add_argument("--out", required=True, help="output file (.csv native, or .zma)")
-    p.add_argument("--model", default=None, metavar="SPEC",
+    p.add_argument("--model", default=None, metavar="MODEL",
                    help="check that the parameter file holds this model (a spec: UD, NL+winding_capacitance)")
     p.add_argument("--rings", type=int_at_least(1), default=None,
                    help="rings: for UL the discretisation (default: the file's, else 5); "

@@ -1,4 +1,4 @@
-"""``bayes-emt ts DATA [--model SPEC] [--loaded FILE --delta-m KG]... [--box FILE --box-volume M3]
+"""``bayes-emt ts DATA [--model MODEL] [--loaded FILE --delta-m KG]... [--box FILE --box-volume M3]
 [--sd M2] [--re OHM[:SD]] [--mms KG | --bl TM] [--exclude-band F1:F2]... [--fast] [--json OUT]``:
 Thiele–Small parameters with 90 % intervals and their spread across coil models.
 
@@ -39,7 +39,7 @@ def register(sub) -> None:
     p = add_parser(sub, "ts", help="Thiele-Small parameters with credible intervals (free air, added mass, "
                    "added volume)", description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
     p.add_argument("data", help="free-air recording")
-    p.add_argument("--model", default="UD", metavar="SPEC", help="model spec (default UD)")
+    p.add_argument("--model", default="UD", metavar="MODEL", help="model spec (default UD)")
     p.add_argument("--loaded", action="append", default=[], metavar="FILE",
                    help="a recording with an added mass (repeat; each needs its --delta-m, in order)")
     p.add_argument("--delta-m", action="append", type=float, default=[], metavar="KG",
@@ -55,7 +55,7 @@ def register(sub) -> None:
     g.add_argument("--bl", type=positive_float, default=None, metavar="TM", help="known force factor [T m]")
     p.add_argument("--air-density", type=positive_float, default=1.18, help="kg/m^3 (default 1.18)")
     p.add_argument("--sound-speed", type=positive_float, default=343.0, help="m/s (default 343)")
-    p.add_argument("--spread-models", default=None, metavar="SPECS",
+    p.add_argument("--spread-models", default=None, metavar="MODELS",
                    help="comma-separated candidate models for the model spread (default II,III,UD with the "
                         "model's physics terms; 'none' for none)")
     p.add_argument("--fast", action="store_true",

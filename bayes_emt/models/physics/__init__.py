@@ -1,4 +1,4 @@
-"""The physics catalogue (SPEC §7): terms that add what a base model leaves out, one per module.
+"""The physics catalogue: terms that add what a base model leaves out, one per module.
 
 Each term is device physics or an instrument effect, enters the plant at its stage
 (:mod:`bayes_emt.models.term`), declares its parameters with proper priors identical in every

@@ -1,4 +1,4 @@
-"""A vented box or passive radiator (SPEC §7): box compliance and port mass coupled to the driver's
+"""A vented box or passive radiator (Thiele 1971): box compliance and port mass coupled to the driver's
 motional branch."""
 
 from __future__ import annotations

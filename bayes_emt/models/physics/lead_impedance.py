@@ -1,4 +1,4 @@
-"""Lead and fixture impedance (SPEC §7): cables and fixture in series with the transducer."""
+"""Lead and fixture impedance: cables and fixture in series with the transducer."""
 
 from __future__ import annotations
 

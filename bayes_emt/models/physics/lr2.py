@@ -1,4 +1,4 @@
-"""The LR-2 coil (SPEC §7; Klippel): a second inductance shunted by a resistance, in series."""
+"""The LR-2 coil (Klippel): a second inductance shunted by a resistance, in series."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""An instrument artefact (SPEC §7): a range switch or calibration boundary of the analyser, not
+"""An instrument artefact: a range switch or calibration boundary of the analyser, not
 the device."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""A second mechanical mode in series (SPEC §7): rocking, cone break-up or a fixture mode."""
+"""A second mechanical mode in series: rocking, cone break-up or a fixture mode."""
 
 from __future__ import annotations
 

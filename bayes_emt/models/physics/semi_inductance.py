@@ -1,4 +1,4 @@
-"""Semi-inductance (SPEC §7; Leach 1999): the loudspeaker world's lossy coil inductance ``K s^n``."""
+"""Semi-inductance (Leach 1999): the loudspeaker world's lossy coil inductance ``K s^n``."""
 
 from __future__ import annotations
 

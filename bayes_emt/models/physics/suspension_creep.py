@@ -1,4 +1,4 @@
-"""Viscoelastic suspension creep (SPEC §7): the LOG creep model of Knudsen & Jensen (1993)."""
+"""Viscoelastic suspension creep: the LOG creep model of Knudsen & Jensen (1993)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Thermal drift during the sweep (SPEC §7): the coil resistance changing along the sweep order."""
+"""Thermal drift during the sweep: the coil resistance changing along the sweep order."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Winding capacitance (SPEC §7): inter-turn and lead capacitance across the terminals."""
+"""Winding capacitance: inter-turn and lead capacitance across the terminals."""
 
 from __future__ import annotations
 
