@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._procs import WallClock
 from .._record import Record, Table
 from ..errors import FitError
 from ..estimation.checks import locate_resonance
@@ -39,7 +40,6 @@ from .candidates import candidate_physics
 from .locate import ALPHA, Band, Location, locate_mismatch
 from .name import (
     Candidate,
-    CpuClock,
     FitCache,
     base_task,
     log_evidence,
@@ -416,14 +416,21 @@ def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *, cache:
     return best[0], best[1], scores
 
 
+#: the share of ``diagnose``'s time budget left for the work after the search (the stability review,
+#: the residual shapes of the unexplained bands): the search itself stops at the rest
+BUDGET_RESERVE = 0.05
+
+
 def _pool(workers: int | None):
     """A process pool of ``workers`` (``None``: :data:`DEFAULT_WORKERS`, at most the machine's cores;
     ``0``: one per core), or ``None`` for one worker or inside a daemonic process. Forked where the
     platform can (the workers share the imported package and the terms registered at run time);
-    where it cannot, no pool unless ``workers`` asks for one."""
+    where it cannot, no pool unless ``workers`` asks for one. Its workers die with this process and
+    a lost worker is a one-line error (:class:`bayes_emt._procs.ProcessPool`)."""
     import multiprocessing
     import os
-    from concurrent.futures import ProcessPoolExecutor
+
+    from .._procs import ProcessPool
 
     cores = os.cpu_count() or 1
     n = min(DEFAULT_WORKERS, cores) if workers is None else int(workers)
@@ -436,7 +443,7 @@ def _pool(workers: int | None):
     if "fork" not in methods and workers is None:
         return None  # spawned workers would not hold terms registered at run time
     ctx = multiprocessing.get_context("fork" if "fork" in methods else methods[0])
-    return ProcessPoolExecutor(max_workers=n, mp_context=ctx)
+    return ProcessPool(n, step="the diagnosis", context=ctx)
 
 
 def _resonance(model: Model, z: np.ndarray) -> np.ndarray:
@@ -575,6 +582,7 @@ def diagnose(
     workers: int | None = None,
     warm: bool = True,
     per_decade: float | None = SEARCH_PER_DECADE,
+    budget_start: float | None = None,
 ) -> Diagnosis:
     """Locate, name and model what ``model`` leaves out of ``meas`` (module docstring).
 
@@ -589,10 +597,14 @@ def diagnose(
     seed : seeds the scan's calibration replicates.
     progress : optional ``callable(str)`` told what is being done (one line per candidate fitted,
         with its log Z and wall seconds); quiet by default.
-    time_budget : CPU seconds of this process and its workers after which no further candidate is
-        fitted (the round in progress finishes with what it has; a warning says so); ``None``: no
-        limit. CPU time, not wall time: on a shared machine the result does not depend on the load.
-        A safety net: the search is meant to finish well inside it.
+    time_budget : wall-clock seconds from the call after which no further candidate is fitted: a
+        candidate still running in a worker process then is abandoned (the workers are ended), the
+        round in progress finishes with what it has, and a warning says what was cut; without a pool
+        (``workers=1``) the candidate in progress finishes first. :data:`BUDGET_RESERVE` of it is kept
+        for the work after the search. Wall time, so a busy machine stops the search earlier:
+        ``None`` or ``0``: no limit, the same result on any machine.
+    budget_start : the :func:`time.monotonic` instant ``time_budget`` counts from (default: this
+        call; a command passes its own start, so that its imports count too).
     workers : processes fitting a band's candidates in parallel (``None``: :data:`DEFAULT_WORKERS`,
         at most one per core; ``0``: one per core; ``1``: none). The findings do not depend on it:
         every candidate is deterministic and the results are merged in the order they are listed.
@@ -619,8 +631,10 @@ def diagnose(
         fit = fit_admittance(meas, fit.model, initial=fit.theta, warm=True)
     search_points = {"n_points": n_all, "used": meas.n_points, "per_decade": per_decade or None}
     t0 = time.perf_counter()
-    clock = CpuClock()
-    deadline = None if time_budget is None else clock() + time_budget
+    time_budget = time_budget or None
+    clock = WallClock()
+    start = clock() if budget_start is None else budget_start
+    deadline = None if time_budget is None else start + (1 - BUDGET_RESERVE) * time_budget
     say = progress or (lambda msg: None)
     cache = FitCache()
     pool = _pool(workers)

@@ -1,0 +1,279 @@
+"""Processes that die with their parent, a pool that never hangs, and a wall-clock time budget.
+
+The commands run as real processes (``python -m bayes_emt.cli``) in a session of their own; a
+fixture kills that process group, and every worker pid seen, when a test ends, failed or not. A
+process counts as gone once it no longer exists or is a zombie (dead, waiting to be reaped by
+whoever adopted it)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from bayes_emt._procs import ProcessPool, WorkerLost, process_age
+from bayes_emt.io.datasets import concealed_bench_path
+
+ROOT = Path(__file__).resolve().parent.parent
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc (Linux)")
+
+
+# ---- helpers ---------------------------------------------------------------------------------------
+def _stat(pid: int) -> tuple[str, int] | None:
+    """``(state, parent pid)`` of a live process, ``None`` when it is gone or a zombie."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            fields = fh.read().rsplit(b")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+    state = fields[0].decode()
+    return None if state in ("Z", "X") else (state, int(fields[1]))
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for name in os.listdir("/proc"):
+        if name.isdigit() and (st := _stat(int(name))) is not None and st[1] == pid:
+            out.append(int(name))
+    return out
+
+
+def _alive(pids) -> list[int]:
+    return [p for p in pids if _stat(p) is not None]
+
+
+def _wait_gone(pids, seconds: float) -> list[int]:
+    """The pids still running after at most ``seconds``."""
+    end = time.monotonic() + seconds
+    while (left := _alive(pids)) and time.monotonic() < end:
+        time.sleep(0.05)
+    return left
+
+
+class Tree:
+    """A started command, its session, and every pid seen in it (killed at teardown)."""
+
+    def __init__(self):
+        self.proc: subprocess.Popen | None = None
+        self.seen: set[int] = set()
+
+    def start(self, args, cwd) -> subprocess.Popen:
+        env = {**os.environ, "PYTHONPATH": str(ROOT), "PYTHONWARNINGS": "ignore", "OMP_NUM_THREADS": "1",
+               "MPLBACKEND": "Agg"}
+        self.proc = subprocess.Popen([sys.executable, "-m", "bayes_emt.cli", *args], cwd=cwd, env=env,
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                                     start_new_session=True)
+        return self.proc
+
+    def workers(self, n: int, timeout: float) -> list[int]:
+        """Wait until the command has ``n`` live child processes; their pids."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            assert self.proc.poll() is None, f"the command ended first: {self.proc.stderr.read()}"
+            kids = _children(self.proc.pid)
+            self.seen.update(kids)
+            if len(kids) >= n:
+                return kids
+            time.sleep(0.05)
+        raise AssertionError(f"no {n} worker processes within {timeout} s")
+
+    def kill(self):
+        if self.proc is not None:
+            for pid in [self.proc.pid, *self.seen]:
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except (ProcessLookupError, PermissionError):
+                    pass
+            try:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                pass
+
+
+@pytest.fixture
+def tree():
+    t = Tree()
+    try:
+        yield t
+    finally:
+        t.kill()
+
+
+def _one_line(err: str) -> str:
+    assert "Traceback" not in err, err
+    lines = [ln for ln in err.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+DIAGNOSE = ["diagnose", str(concealed_bench_path()), "--workers", "2", "--time-budget", "0"]
+
+
+# ---- the pool itself -------------------------------------------------------------------------------
+def _busy(seconds: float) -> int:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        pass
+    return os.getpid()
+
+
+def _handlers():
+    return signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+
+
+def test_workers_start_with_default_sigterm_and_ignored_sigint():
+    old = signal.signal(signal.SIGTERM, lambda *a: None)  # a parent's Python handler is not inherited
+    try:
+        with ProcessPool(2) as pool:
+            assert pool.submit(_handlers).result(timeout=30) == (signal.SIG_IGN, signal.SIG_DFL)
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def test_a_killed_worker_is_a_one_line_error_at_once_and_close_ends_the_busy_one():
+    pool = ProcessPool(2, step="the test")
+    try:
+        tasks = [pool.submit(_busy, 60.0, "candidate x"), pool.submit(_busy, 60.0, "candidate y")]
+        end = time.monotonic() + 30
+        while len(pool.pids()) < 2 and time.monotonic() < end:
+            time.sleep(0.05)
+        pids = pool.pids()
+        os.kill(pids[0], signal.SIGKILL)
+        t0 = time.monotonic()
+        with pytest.raises(WorkerLost, match=r"a worker process of the test ended without its result \(busy "
+                                             r"candidate x; killed by a signal"):
+            tasks[0].result(timeout=30)
+        assert time.monotonic() - t0 < 5
+    finally:
+        t0 = time.monotonic()
+        pool.close()
+        closed = time.monotonic() - t0
+    assert closed < 3 and not _wait_gone(pids, 1.0)
+
+
+def test_close_is_bounded_while_tasks_run():
+    pool = ProcessPool(2)
+    pool.submit(_busy, 60.0)
+    pool.submit(_busy, 60.0)
+    time.sleep(0.5)
+    pids = pool.pids()
+    t0 = time.monotonic()
+    pool.close()
+    assert time.monotonic() - t0 < 3 and len(pids) == 2 and not _wait_gone(pids, 1.0)
+
+
+_ORPHAN = """
+import os, signal, sys, time
+from bayes_emt._procs import ProcessPool
+def busy():
+    while True:
+        pass
+if __name__ == "__main__":
+    pool = ProcessPool(2)
+    pool.submit(busy); pool.submit(busy)
+    while len(pool.pids()) < 2:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    print(" ".join(map(str, pool.pids())), flush=True)
+    time.sleep(120)
+"""
+
+
+def test_workers_die_when_their_parent_is_killed(tree, tmp_path):
+    script = tmp_path / "orphan.py"
+    script.write_text(_ORPHAN)
+    tree.proc = subprocess.Popen([sys.executable, str(script)], env={**os.environ, "PYTHONPATH": str(ROOT)},
+                                 stdout=subprocess.PIPE, text=True, start_new_session=True)
+    pids = [int(p) for p in tree.proc.stdout.readline().split()]
+    tree.seen.update(pids)
+    assert len(pids) == 2 and not set(pids) - set(_alive(pids))
+    os.kill(tree.proc.pid, signal.SIGKILL)
+    assert not _wait_gone(pids, 3.0), "workers outlived their parent"
+
+
+def test_die_with_parent_uses_the_kernel_on_linux():
+    code = "from bayes_emt._procs import die_with_parent; print(die_with_parent())"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=60)
+    assert out.stdout.strip() == "prctl", out.stderr
+
+
+def test_process_age_counts_from_the_interpreters_start():
+    assert 0.0 < process_age() < time.monotonic() + 1.0
+
+
+# ---- the commands ----------------------------------------------------------------------------------
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_diagnose_signal_ends_the_tree_at_once(tree, tmp_path, sig):
+    out = tmp_path / "d.json"
+    proc = tree.start([*DIAGNOSE, "--json", str(out)], tmp_path)
+    workers = tree.workers(2, timeout=60)
+    time.sleep(0.5)  # let them work
+    t0 = time.monotonic()
+    proc.send_signal(sig)
+    rc = proc.wait(timeout=10)
+    assert time.monotonic() - t0 < 3
+    assert rc == 128 + sig
+    assert not _wait_gone(workers, 3.0 - (time.monotonic() - t0)), "workers outlived the command"
+    assert _one_line(proc.stderr.read()) == "bayes-emt: interrupted (" + signal.Signals(sig).name + ")"
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_diagnose_sigkill_of_the_command_ends_its_workers(tree, tmp_path):
+    proc = tree.start(DIAGNOSE, tmp_path)
+    workers = tree.workers(2, timeout=60)
+    time.sleep(0.5)
+    proc.kill()
+    proc.wait(timeout=10)
+    assert not _wait_gone(workers, 3.0), "workers outlived the killed command"
+
+
+def test_diagnose_a_killed_worker_ends_the_command_with_one_line(tree, tmp_path):
+    out = tmp_path / "d.json"
+    proc = tree.start([*DIAGNOSE, "--json", str(out)], tmp_path)
+    workers = tree.workers(2, timeout=60)
+    time.sleep(0.5)
+    t0 = time.monotonic()
+    os.kill(workers[0], signal.SIGKILL)
+    rc = proc.wait(timeout=10)
+    assert time.monotonic() - t0 < 5
+    line = _one_line(proc.stderr.read())
+    assert rc == 2 and line.startswith("bayes-emt: error: a worker process of the diagnosis ended without "
+                                       "its result (")
+    assert "--workers 1" in line
+    assert not _wait_gone(workers, 2.0) and not out.exists()
+
+
+DEMO = ["demo", "--quick", "--out", "run", "--skip", "robust_shunt", "--max-steps", "30", "--quiet"]
+
+
+def test_demo_sigterm_ends_the_tree_and_writes_no_report(tree, tmp_path):
+    proc = tree.start(DEMO, tmp_path)
+    workers = tree.workers(2, timeout=120)  # the diagnosis step's pool: the demo's last step
+    time.sleep(0.5)
+    t0 = time.monotonic()
+    proc.terminate()
+    rc = proc.wait(timeout=10)
+    assert time.monotonic() - t0 < 3 and rc == 143
+    assert not _wait_gone(workers, 3.0 - (time.monotonic() - t0))
+    assert _one_line(proc.stderr.read()) == "bayes-emt: interrupted (SIGTERM)"
+    assert not (tmp_path / "run" / "report.html").exists() and not (tmp_path / "run" / "run.json").exists()
+    assert not (tmp_path / "run" / "diagnosis.json").exists()
+
+
+def test_demo_sigkill_ends_its_workers(tree, tmp_path):
+    proc = tree.start(DEMO, tmp_path)
+    workers = tree.workers(2, timeout=120)
+    time.sleep(0.5)
+    proc.kill()
+    proc.wait(timeout=10)
+    assert not _wait_gone(workers, 3.0)
