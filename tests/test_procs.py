@@ -270,6 +270,7 @@ def test_demo_sigterm_ends_the_tree_and_writes_no_report(tree, tmp_path):
     assert not (tmp_path / "run" / "diagnosis.json").exists()
 
 
+@pytest.mark.slow  # the demo's pool starts after ~15 CPU s of fits and evidence; the SIGTERM test covers it
 def test_demo_sigkill_ends_its_workers(tree, tmp_path):
     proc = tree.start(DEMO, tmp_path)
     workers = tree.workers(2, timeout=120)

@@ -384,25 +384,36 @@ def _joint_table(source: str, j: dict) -> Table:
 
 
 def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *, cache: FitCache | None = None,
-                         pool=None, clock=None) -> tuple[FitResult, float, dict]:
+                         pool=None, clock=None,
+                         deadline: float | None = None) -> tuple[FitResult, float, dict]:
     """The base model (of ``names``) with the largest Laplace log evidence: its fit, log Z and the
     log Z of every one tried ``{name: log_z}`` [nats]. ``cache``: a :class:`.name.FitCache` filled
     with every base model's fit and evidence (the eddy-current escalation from a base below UD then
     does not fit III or UD again); ``pool``: the models fitted in parallel (the same result), the
-    workers' CPU time added to ``clock`` (a :class:`.name.CpuClock`)."""
+    workers' CPU time added to ``clock`` (a :class:`.name.CpuClock`). ``deadline``: on ``clock``
+    (a :class:`bayes_emt._procs.WallClock`), the models not fitted by then are left out (the pool's
+    running fits abandoned; without a pool the fit in progress finishes) and missing from the
+    scores; a :class:`FitError` when none was."""
     cache = FitCache() if cache is None else cache
-    best, scores = None, {}
+    best, scores, cut = None, {}, False
     if pool is not None:
         parts = portable(meas)
         futures = [pool.submit(base_task, parts, name) for name in names]
         for fut in futures:
-            fit, ev, cpu = fut.result()
+            try:
+                fit, ev, cpu = fut.result(None if deadline is None else max(0.0, deadline - clock()))
+            except TimeoutError:  # the time budget ran out: the fits still running are abandoned
+                getattr(pool, "stop_workers", lambda: None)()
+                cut = True
+                break
             if hasattr(clock, "workers"):
                 clock.workers += cpu
             if fit is not None:
                 cache.fits.setdefault(fit.model.label, fit)
                 cache.evidence.setdefault(fit.model.label, (fit, ev))
     for name in names:
+        if (cut or (deadline is not None and clock() > deadline and scores)) and name not in cache.fits:
+            continue
         try:
             fit = fit_reusing(meas, parse_model_spec(name), cache.fits)
         except (FitError, ValueError):
@@ -411,6 +422,10 @@ def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *, cache:
         scores[name] = lz
         if math.isfinite(lz) and (best is None or lz > best[1]):
             best = (fit, lz)
+    if best is None and (cut or (deadline is not None and clock() > deadline)):
+        raise FitError(f"{meas.source}: the time budget ran out before any of the base models "
+                       f"{', '.join(names)} was fitted: give more time (--time-budget) or the model to start "
+                       "from (--model)")
     if best is None:
         raise FitError(f"{meas.source}: none of the base models {', '.join(names)} could be fitted")
     return best[0], best[1], scores
@@ -660,7 +675,11 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
         model = fit.model
     if model is None:
         say("choosing the base model by evidence")
-        fit, lz, scores = preferred_base_model(meas, cache=cache, pool=pool, clock=clock)
+        fit, lz, scores = preferred_base_model(meas, cache=cache, pool=pool, clock=clock, deadline=deadline)
+        if len(scores) < len(BASELINE_CANDIDATES) and deadline is not None and clock() > deadline:
+            left = [n for n in BASELINE_CANDIDATES if n not in scores]
+            warn.append(f"time budget of {time_budget:g} s reached while choosing the base model: "
+                        f"{', '.join(left)} not compared (the start is the best of the others)")
         say(
             "base model "
             + fit.model.label
