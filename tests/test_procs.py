@@ -7,6 +7,7 @@ whoever adopted it)."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -278,3 +279,74 @@ def test_demo_sigkill_ends_its_workers(tree, tmp_path):
     proc.kill()
     proc.wait(timeout=10)
     assert not _wait_gone(workers, 3.0)
+
+
+# ---- the time budget -------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def dense_recording(tmp_path_factory):
+    """2000 points of UD with 20 nF across the terminals (0.3 % noise): its blind diagnosis takes
+    about a minute of wall time on a busy 2-core machine."""
+    import numpy as np
+
+    from bayes_emt.io import write_measurement
+    from bayes_emt.io.simulate import simulate
+    from bayes_emt.models import parse_model_spec
+    from bayes_emt.reference import PAPER_TABLES
+
+    meas = simulate(parse_model_spec("UD+winding_capacitance"), {**PAPER_TABLES["UD"], "Cp": 2e-8},
+                    np.geomspace(1e1, 1e5, 2000), noise=0.003, seed=3)
+    path = tmp_path_factory.mktemp("dense") / "ud2000.csv"
+    write_measurement(meas, path)
+    return meas, path
+
+
+@pytest.fixture
+def busy_loops():
+    """Start ``n`` CPU-bound busy loops (killed at teardown)."""
+    procs = []
+
+    def start(n):
+        for _ in range(n):
+            procs.append(subprocess.Popen([sys.executable, "-c", "while True: pass"]))
+
+    try:
+        yield start
+    finally:
+        for p in procs:
+            p.kill()
+            p.wait(timeout=10)
+
+
+def test_budget_is_wall_time_and_abandons_the_running_candidates(dense_recording, busy_loops):
+    """A 10 s budget with a CPU-bound loop beside the search: the call returns within 10 % of it,
+    its warning names what was cut."""
+    from bayes_emt.discovery import diagnose
+    from bayes_emt.models import parse_model_spec
+
+    meas, _ = dense_recording
+    busy_loops(1)
+    t0 = time.monotonic()
+    d = diagnose(meas, parse_model_spec("UD"), time_budget=10.0, workers=2)
+    wall = time.monotonic() - t0
+    assert wall <= 11.0, f"{wall:.1f} s for a 10 s budget (load {os.getloadavg()[0]:.1f})"
+    assert d.budget_hit
+    cut = next(w for w in d.warnings if w.startswith("time budget of 10 s reached"))
+    assert "without a result: " in cut or "bands left were not examined (" in cut
+
+
+@pytest.mark.slow
+def test_diagnose_budget_30_s_with_two_busy_loops_ends_within_33_s(dense_recording, busy_loops, tree,
+                                                                   tmp_path):
+    """Acceptance: ``diagnose --time-budget 30`` of a 2000-point file with two CPU-bound loops beside
+    it on a 2-core machine ends within 33 s of its start (imports included) and says what was cut."""
+    _, path = dense_recording
+    busy_loops(2)
+    t0 = time.monotonic()
+    proc = tree.start(["diagnose", str(path), "--time-budget", "30", "--json", str(tmp_path / "d.json")],
+                      tmp_path)
+    proc.wait(timeout=120)
+    wall = time.monotonic() - t0
+    err = proc.stderr.read()
+    assert wall <= 33.0, f"{wall:.1f} s (load {os.getloadavg()[0]:.1f}): {err}"
+    warns = json.loads((tmp_path / "d.json").read_text())["warnings"]
+    assert proc.returncode == 1 and any(w.startswith("time budget of 30 s reached") for w in warns)

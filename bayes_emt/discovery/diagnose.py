@@ -722,7 +722,9 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
         accepted = None
         unexplained_bands = []
         if deadline is not None and clock() > deadline:
-            warn.append(f"time budget of {time_budget:g} s reached: the bands left were not examined")
+            left = ", ".join(f"{b.lo / (2 * math.pi):.4g}-{b.hi / (2 * math.pi):.4g} Hz" for b in loc.bands)
+            warn.append(f"time budget of {time_budget:g} s reached: the bands left were not examined "
+                        f"({left})")
             unexplained_bands = list(loc.bands)
             break
         for band in loc.bands[:MAX_BANDS_PER_ROUND]:
@@ -764,7 +766,8 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
             if deadline is not None and clock() > deadline:
                 warn.append(
                     f"time budget of {time_budget:g} s reached while trying candidates for the band "
-                    f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted"
+                    f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted (without a result: "
+                    + (", ".join(p for p in ids if p not in {c.physics for c in ranked}) or "none") + ")"
                 )
             for c in ranked:
                 if c.patch_problem and c.delta_log_z >= 5.0:
