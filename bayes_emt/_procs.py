@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
-import ctypes.util
 import os
 import signal
 import sys
@@ -38,7 +37,8 @@ from concurrent.futures import TimeoutError as FutureTimeout
 
 from .errors import BayesEMTError
 
-__all__ = ["ProcessPool", "WallClock", "WorkerLost", "die_with_parent", "process_age", "worker_start"]
+__all__ = ["ProcessPool", "WallClock", "WorkerLost", "die_with_parent", "parent_death_preexec", "process_age",
+           "worker_start"]
 
 #: seconds :meth:`ProcessPool.close` waits for its workers after SIGTERM before it sends SIGKILL
 JOIN_SECONDS = 1.0
@@ -78,15 +78,21 @@ def process_age() -> float:
         return 0.0
 
 
-def _pdeathsig(sig: int) -> bool:
-    """Ask the Linux kernel to send ``sig`` to this process when its parent dies; whether it took."""
+def _prctl():
+    """libc's ``prctl`` (Linux), or ``None``: looked up among the symbols already loaded (no search
+    of the file system, so it is safe between ``fork`` and ``exec``)."""
     if not sys.platform.startswith("linux"):
-        return False
+        return None
     try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
-        return libc.prctl(_PR_SET_PDEATHSIG, int(sig), 0, 0, 0) == 0
+        return ctypes.CDLL(None, use_errno=True).prctl
     except (OSError, AttributeError):
-        return False
+        return None
+
+
+def _pdeathsig(sig: int, prctl=None) -> bool:
+    """Ask the Linux kernel to send ``sig`` to this process when its parent dies; whether it took."""
+    prctl = prctl or _prctl()
+    return prctl is not None and prctl(_PR_SET_PDEATHSIG, int(sig), 0, 0, 0) == 0
 
 
 def _watch_parent(parent: int) -> None:
@@ -116,10 +122,14 @@ def worker_start(parent: int) -> None:
     die_with_parent(parent)
 
 
-def preexec_die_with_parent() -> None:
-    """``preexec_fn`` for :class:`subprocess.Popen`: the child gets SIGKILL when this process's
-    thread that started it ends (Linux; elsewhere nothing)."""
-    _pdeathsig(signal.SIGKILL)
+def parent_death_preexec():
+    """A ``preexec_fn`` for :class:`subprocess.Popen` (``None`` where there is no ``prctl``): the
+    child gets SIGKILL when the thread of this process that started it ends (Linux), so a child
+    never outlives a killed parent."""
+    prctl = _prctl()
+    if prctl is None:
+        return None
+    return lambda: _pdeathsig(signal.SIGKILL, prctl)
 
 
 def _label(fn, args) -> str:

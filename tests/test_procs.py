@@ -350,3 +350,18 @@ def test_diagnose_budget_30_s_with_two_busy_loops_ends_within_33_s(dense_recordi
     assert wall <= 33.0, f"{wall:.1f} s (load {os.getloadavg()[0]:.1f}): {err}"
     warns = json.loads((tmp_path / "d.json").read_text())["warnings"]
     assert proc.returncode == 1 and any(w.startswith("time budget of 30 s reached") for w in warns)
+
+
+def test_a_subprocess_started_with_the_preexec_dies_with_its_parent(tree, tmp_path):
+    """What the report's headless browser gets: ``sleep`` started by a parent that is then killed."""
+    script = tmp_path / "parent.py"
+    script.write_text("import subprocess, time\nfrom bayes_emt._procs import parent_death_preexec\n"
+                      "p = subprocess.Popen(['sleep', '120'], preexec_fn=parent_death_preexec())\n"
+                      "print(p.pid, flush=True)\ntime.sleep(120)\n")
+    tree.proc = subprocess.Popen([sys.executable, str(script)], env={**os.environ, "PYTHONPATH": str(ROOT)},
+                                 stdout=subprocess.PIPE, text=True, start_new_session=True)
+    child = int(tree.proc.stdout.readline())
+    tree.seen.add(child)
+    assert _alive([child]) == [child]
+    os.kill(tree.proc.pid, signal.SIGKILL)
+    assert not _wait_gone([child], 3.0), "the child outlived its parent"
