@@ -365,3 +365,31 @@ def test_a_subprocess_started_with_the_preexec_dies_with_its_parent(tree, tmp_pa
     assert _alive([child]) == [child]
     os.kill(tree.proc.pid, signal.SIGKILL)
     assert not _wait_gone([child], 3.0), "the child outlived its parent"
+
+
+@pytest.mark.slow  # 28 s at load 10 (the Dask cluster's start); measured figures in docs/reliability.md
+@pytest.mark.parametrize("sig", [signal.SIGTERM])
+def test_batch_signal_kills_the_dask_workers_at_once(tree, tmp_path, sig):
+    """``batch`` on a local Dask cluster: SIGTERM while its workers run files ends the command
+    within 3 s with 143 and one line, and no worker process is left (a graceful close of the
+    cluster would wait for the files in progress)."""
+    from test_batch import make_recordings
+
+    data = make_recordings(tmp_path / "data", 4, broken=False)
+    out = tmp_path / "out"
+    proc = tree.start(["batch", str(data), "--model", "I", "--jobs", "fit,sample", "--max-steps", "5000",
+                       "--workers", "2", "--out", str(out)], tmp_path)
+    end = time.monotonic() + 120
+    while not (out.is_dir() and any(p.is_dir() for p in out.iterdir())):  # a worker is on a file
+        assert proc.poll() is None and time.monotonic() < end, proc.stderr.read()
+        tree.seen.update(_children(proc.pid))
+        time.sleep(0.1)
+    time.sleep(1.0)
+    kids = _children(proc.pid)
+    tree.seen.update(kids)
+    t0 = time.monotonic()
+    proc.send_signal(sig)
+    rc = proc.wait(timeout=30)
+    assert time.monotonic() - t0 < 3 and rc == 128 + sig
+    assert _one_line(proc.stderr.read()) == f"bayes-emt: interrupted ({signal.Signals(sig).name})"
+    assert not _wait_gone(kids, 3.0 - (time.monotonic() - t0))
