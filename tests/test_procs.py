@@ -393,3 +393,38 @@ def test_batch_signal_kills_the_dask_workers_at_once(tree, tmp_path, sig):
     assert time.monotonic() - t0 < 3 and rc == 128 + sig
     assert _one_line(proc.stderr.read()) == f"bayes-emt: interrupted ({signal.Signals(sig).name})"
     assert not _wait_gone(kids, 3.0 - (time.monotonic() - t0))
+
+
+_WATCHED = """
+import multiprocessing, os, sys, time
+from bayes_emt import _procs
+def child(parent):
+    _procs._pdeathsig = lambda *a, **k: False  # as on a system without prctl
+    if _procs.die_with_parent(parent) == "watch":
+        open(sys.argv[1], "w").close()
+    while True:
+        pass
+if __name__ == "__main__":
+    p = multiprocessing.get_context("fork").Process(target=child, args=(os.getpid(),))
+    p.start()
+    print(p.pid, flush=True)
+    time.sleep(120)
+"""
+
+
+def test_without_the_kernels_help_a_thread_watching_the_parent_ends_the_worker(tree, tmp_path):
+    script = tmp_path / "watched.py"
+    script.write_text(_WATCHED)
+    ready = tmp_path / "ready"
+    tree.proc = subprocess.Popen([sys.executable, str(script), str(ready)],
+                                 env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=subprocess.PIPE,
+                                 text=True, start_new_session=True)
+    child = int(tree.proc.stdout.readline())
+    tree.seen.add(child)
+    end = time.monotonic() + 30
+    while not ready.exists():
+        assert time.monotonic() < end and _alive([child]), "the child did not start its watch"
+        time.sleep(0.05)
+    assert _alive([child]) == [child]
+    os.kill(tree.proc.pid, signal.SIGKILL)
+    assert not _wait_gone([child], 3.0), "the watched child outlived its parent"
