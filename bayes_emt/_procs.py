@@ -185,6 +185,8 @@ class ProcessPool:
             return Task(self, self._ex.submit(fn, *args), label)
         except BrokenExecutor:
             raise WorkerLost(self.lost_message(label)) from None
+        except RuntimeError:  # after stop_workers or close: say so instead of the executor's words
+            raise WorkerLost(f"{label}: the worker processes of {self.step} were already stopped") from None
 
     def lost_message(self, label: str) -> str:
         return (f"a worker process of {self.step} ended without its result ({label}; killed by a signal "

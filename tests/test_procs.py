@@ -161,6 +161,14 @@ def test_a_killed_worker_is_a_one_line_error_at_once_and_close_ends_the_busy_one
     assert closed < 3 and not _wait_gone(pids, 1.0)
 
 
+def test_a_stopped_pool_refuses_new_work_in_one_line():
+    pool = ProcessPool(2, step="the test")
+    pool.stop_workers()
+    with pytest.raises(WorkerLost, match="the worker processes of the test were already stopped"):
+        pool.submit(_busy, 0.1)
+    pool.close()
+
+
 def test_close_is_bounded_while_tasks_run():
     pool = ProcessPool(2)
     pool.submit(_busy, 60.0)
