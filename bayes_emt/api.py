@@ -148,7 +148,9 @@ def diagnose(meas: Measurement | str | Path, model: Model | str | None = None, *
     """Locate where ``model`` (or ``fit``'s model, reusing that fit; neither: the base model the
     evidence prefers) and ``meas`` differ beyond the noise, name the catalogue physics that
     explains each band, and add it (:func:`~bayes_emt.discovery.diagnose.diagnose`).
-    ``time_budget`` [CPU s] stops trying further candidates (``None``: no limit); ``setup``
+    ``time_budget`` [wall-clock s from the call] stops the search, abandoning the candidates still
+    running, and a warning says what was cut (``None`` or ``0``: no limit, the same result on any
+    machine); ``setup``
     (``"free-air"``, ``"sealed"``, ``"vented"``, ``"shaker"``, ``"unknown"``) removes physics the
     setup cannot have (no port in free air); ``exclude_band=[(f1_hz, f2_hz), ...]`` leaves out a narrow
     feature no lumped model explains. ``also=[(recording, delta_m_kg), ...]``: second recordings of the

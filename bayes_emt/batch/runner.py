@@ -15,7 +15,10 @@ Before submitting, every input whose result folder is finished (:func:`~bayes_em
 completion marker written atomically last, same input bytes, same settings) is skipped. Every
 output is written atomically and the marker last, so killing the batch at any moment loses at
 most the files in progress; their sampler checkpoints let the re-run continue their chains. The
-summary (CSV, HTML, JSON) is rewritten from the folders after each completed file.
+summary (CSV, HTML, JSON) is rewritten from the folders after each completed file. On SIGINT or
+SIGTERM a local cluster's worker processes are killed at once (not closed gracefully, which waits
+for the files in progress); on SIGKILL of this process they end by themselves (each Dask worker
+process watches its parent).
 """
 
 from __future__ import annotations
@@ -120,6 +123,22 @@ def run_batch(source: str | Path, out: str | Path, settings: BatchSettings, *, s
     return BatchResult(out=out, outcomes=tuple(outcomes[i.name] for i in inputs), counts=counts)
 
 
+def _kill_local_workers(cluster) -> None:
+    """SIGKILL the worker processes of a :class:`distributed.LocalCluster` this process started. A
+    graceful close waits for the files in progress (seconds to minutes); their outputs are written
+    atomically and the completion marker last, so a re-run redoes just those files."""
+    import os
+    import signal
+
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        pid = getattr(getattr(getattr(nanny, "process", None), "process", None), "pid", None)
+        if pid:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
+
+
 def _run(todo: list[BatchInput], out: Path, settings, scheduler, workers, progress, on_outcome, client,
          outcomes: dict) -> None:
     from distributed import as_completed
@@ -152,6 +171,10 @@ def _run(todo: list[BatchInput], out: Path, settings, scheduler, workers, progre
             if on_outcome is not None:
                 on_outcome(res)
             write_summary(all_inputs, out, jobs=settings.jobs, model=settings.model)
+    except KeyboardInterrupt:  # SIGINT or SIGTERM: end the local workers now, not after their files
+        if cluster is not None:
+            _kill_local_workers(cluster)
+        raise
     finally:
         bar.close()
         if own:

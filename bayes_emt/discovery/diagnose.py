@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._procs import WallClock
 from .._record import Record, Table
 from ..errors import FitError
 from ..estimation.checks import locate_resonance
@@ -39,7 +40,6 @@ from .candidates import candidate_physics
 from .locate import ALPHA, Band, Location, locate_mismatch
 from .name import (
     Candidate,
-    CpuClock,
     FitCache,
     base_task,
     log_evidence,
@@ -384,25 +384,36 @@ def _joint_table(source: str, j: dict) -> Table:
 
 
 def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *, cache: FitCache | None = None,
-                         pool=None, clock=None) -> tuple[FitResult, float, dict]:
+                         pool=None, clock=None,
+                         deadline: float | None = None) -> tuple[FitResult, float, dict]:
     """The base model (of ``names``) with the largest Laplace log evidence: its fit, log Z and the
     log Z of every one tried ``{name: log_z}`` [nats]. ``cache``: a :class:`.name.FitCache` filled
     with every base model's fit and evidence (the eddy-current escalation from a base below UD then
     does not fit III or UD again); ``pool``: the models fitted in parallel (the same result), the
-    workers' CPU time added to ``clock`` (a :class:`.name.CpuClock`)."""
+    workers' CPU time added to ``clock`` (a :class:`.name.CpuClock`). ``deadline``: on ``clock``
+    (a :class:`bayes_emt._procs.WallClock`), the models not fitted by then are left out (the pool's
+    running fits abandoned; without a pool the fit in progress finishes) and missing from the
+    scores; a :class:`FitError` when none was."""
     cache = FitCache() if cache is None else cache
-    best, scores = None, {}
+    best, scores, cut = None, {}, False
     if pool is not None:
         parts = portable(meas)
         futures = [pool.submit(base_task, parts, name) for name in names]
         for fut in futures:
-            fit, ev, cpu = fut.result()
+            try:
+                fit, ev, cpu = fut.result(None if deadline is None else max(0.0, deadline - clock()))
+            except TimeoutError:  # the time budget ran out: the fits still running are abandoned
+                getattr(pool, "stop_workers", lambda: None)()
+                cut = True
+                break
             if hasattr(clock, "workers"):
                 clock.workers += cpu
             if fit is not None:
                 cache.fits.setdefault(fit.model.label, fit)
                 cache.evidence.setdefault(fit.model.label, (fit, ev))
     for name in names:
+        if (cut or (deadline is not None and clock() > deadline and scores)) and name not in cache.fits:
+            continue
         try:
             fit = fit_reusing(meas, parse_model_spec(name), cache.fits)
         except (FitError, ValueError):
@@ -411,19 +422,30 @@ def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *, cache:
         scores[name] = lz
         if math.isfinite(lz) and (best is None or lz > best[1]):
             best = (fit, lz)
+    if best is None and (cut or (deadline is not None and clock() > deadline)):
+        raise FitError(f"{meas.source}: the time budget ran out before any of the base models "
+                       f"{', '.join(names)} was fitted: give more time (--time-budget) or the model to start "
+                       "from (--model)")
     if best is None:
         raise FitError(f"{meas.source}: none of the base models {', '.join(names)} could be fitted")
     return best[0], best[1], scores
+
+
+#: the share of ``diagnose``'s time budget left for the work after the search (the stability review,
+#: the residual shapes of the unexplained bands): the search itself stops at the rest
+BUDGET_RESERVE = 0.05
 
 
 def _pool(workers: int | None):
     """A process pool of ``workers`` (``None``: :data:`DEFAULT_WORKERS`, at most the machine's cores;
     ``0``: one per core), or ``None`` for one worker or inside a daemonic process. Forked where the
     platform can (the workers share the imported package and the terms registered at run time);
-    where it cannot, no pool unless ``workers`` asks for one."""
+    where it cannot, no pool unless ``workers`` asks for one. Its workers die with this process and
+    a lost worker is a one-line error (:class:`bayes_emt._procs.ProcessPool`)."""
     import multiprocessing
     import os
-    from concurrent.futures import ProcessPoolExecutor
+
+    from .._procs import ProcessPool
 
     cores = os.cpu_count() or 1
     n = min(DEFAULT_WORKERS, cores) if workers is None else int(workers)
@@ -436,7 +458,7 @@ def _pool(workers: int | None):
     if "fork" not in methods and workers is None:
         return None  # spawned workers would not hold terms registered at run time
     ctx = multiprocessing.get_context("fork" if "fork" in methods else methods[0])
-    return ProcessPoolExecutor(max_workers=n, mp_context=ctx)
+    return ProcessPool(n, step="the diagnosis", context=ctx)
 
 
 def _resonance(model: Model, z: np.ndarray) -> np.ndarray:
@@ -575,6 +597,7 @@ def diagnose(
     workers: int | None = None,
     warm: bool = True,
     per_decade: float | None = SEARCH_PER_DECADE,
+    budget_start: float | None = None,
 ) -> Diagnosis:
     """Locate, name and model what ``model`` leaves out of ``meas`` (module docstring).
 
@@ -589,10 +612,14 @@ def diagnose(
     seed : seeds the scan's calibration replicates.
     progress : optional ``callable(str)`` told what is being done (one line per candidate fitted,
         with its log Z and wall seconds); quiet by default.
-    time_budget : CPU seconds of this process and its workers after which no further candidate is
-        fitted (the round in progress finishes with what it has; a warning says so); ``None``: no
-        limit. CPU time, not wall time: on a shared machine the result does not depend on the load.
-        A safety net: the search is meant to finish well inside it.
+    time_budget : wall-clock seconds from the call after which no further candidate is fitted: a
+        candidate still running in a worker process then is abandoned (the workers are ended), the
+        round in progress finishes with what it has, and a warning says what was cut; without a pool
+        (``workers=1``) the candidate in progress finishes first. :data:`BUDGET_RESERVE` of it is kept
+        for the work after the search. Wall time, so a busy machine stops the search earlier:
+        ``None`` or ``0``: no limit, the same result on any machine.
+    budget_start : the :func:`time.monotonic` instant ``time_budget`` counts from (default: this
+        call; a command passes its own start, so that its imports count too).
     workers : processes fitting a band's candidates in parallel (``None``: :data:`DEFAULT_WORKERS`,
         at most one per core; ``0``: one per core; ``1``: none). The findings do not depend on it:
         every candidate is deterministic and the results are merged in the order they are listed.
@@ -619,8 +646,10 @@ def diagnose(
         fit = fit_admittance(meas, fit.model, initial=fit.theta, warm=True)
     search_points = {"n_points": n_all, "used": meas.n_points, "per_decade": per_decade or None}
     t0 = time.perf_counter()
-    clock = CpuClock()
-    deadline = None if time_budget is None else clock() + time_budget
+    time_budget = time_budget or None
+    clock = WallClock()
+    start = clock() if budget_start is None else budget_start
+    deadline = None if time_budget is None else start + (1 - BUDGET_RESERVE) * time_budget
     say = progress or (lambda msg: None)
     cache = FitCache()
     pool = _pool(workers)
@@ -646,7 +675,11 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
         model = fit.model
     if model is None:
         say("choosing the base model by evidence")
-        fit, lz, scores = preferred_base_model(meas, cache=cache, pool=pool, clock=clock)
+        fit, lz, scores = preferred_base_model(meas, cache=cache, pool=pool, clock=clock, deadline=deadline)
+        if len(scores) < len(BASELINE_CANDIDATES) and deadline is not None and clock() > deadline:
+            left = [n for n in BASELINE_CANDIDATES if n not in scores]
+            warn.append(f"time budget of {time_budget:g} s reached while choosing the base model: "
+                        f"{', '.join(left)} not compared (the start is the best of the others)")
         say(
             "base model "
             + fit.model.label
@@ -689,7 +722,9 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
         accepted = None
         unexplained_bands = []
         if deadline is not None and clock() > deadline:
-            warn.append(f"time budget of {time_budget:g} s reached: the bands left were not examined")
+            left = ", ".join(f"{b.lo / (2 * math.pi):.4g}-{b.hi / (2 * math.pi):.4g} Hz" for b in loc.bands)
+            warn.append(f"time budget of {time_budget:g} s reached: the bands left were not examined "
+                        f"({left})")
             unexplained_bands = list(loc.bands)
             break
         for band in loc.bands[:MAX_BANDS_PER_ROUND]:
@@ -731,7 +766,8 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
             if deadline is not None and clock() > deadline:
                 warn.append(
                     f"time budget of {time_budget:g} s reached while trying candidates for the band "
-                    f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted"
+                    f"{band.lo:.4g}-{band.hi:.4g} rad/s: not every candidate was fitted (without a result: "
+                    + (", ".join(p for p in ids if p not in {c.physics for c in ranked}) or "none") + ")"
                 )
             for c in ranked:
                 if c.patch_problem and c.delta_log_z >= 5.0:

@@ -412,7 +412,13 @@ def fit_jobs(meas: Measurement, jobs, band: Band, *, warm: bool = True, cache: d
                 f.cancel()
             yield physics, base, None, 0.0
             return
-        res, cpu, new = futures[i].result()
+        try:  # with a wall clock, a candidate still running at the deadline is not waited for
+            res, cpu, new = futures[i].result(None if deadline is None or not getattr(clock, "wall", False)
+                                              else max(0.0, deadline - clock()))
+        except TimeoutError:
+            getattr(pool, "stop_workers", lambda: None)()
+            yield physics, base, None, 0.0
+            return
         if hasattr(clock, "workers"):
             clock.workers += cpu
         if cache is not None and new is not None:

@@ -2,7 +2,8 @@
 
 Debian's ``chromium`` (``apt-get install chromium``) driven on its command line; Playwright's own
 browser download is not needed. Every call uses a fresh profile folder, no network services and
-a time limit, so it leaves nothing behind and cannot hang a test.
+a time limit, so it leaves nothing behind and cannot hang a test; Chromium is killed by the kernel
+when the process that started it dies (Linux), and by that process on SIGINT or SIGTERM.
 """
 
 from __future__ import annotations
@@ -12,6 +13,8 @@ import shutil
 import subprocess
 import tempfile
 from pathlib import Path
+
+from .._procs import parent_death_preexec
 
 __all__ = ["find_chromium", "screenshot", "dump_dom", "BrowserError"]
 
@@ -46,7 +49,10 @@ def _run(url_or_path: str | Path, extra: list[str], timeout: float) -> subproces
                f"--user-data-dir={profile}", "--disable-background-networking", "--disable-component-update",
                "--no-first-run", "--disable-extensions", "--disable-sync", *extra, url]
         try:
-            res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
+            # the kernel ends Chromium if this process dies (its own children follow it); an
+            # exception here (SIGINT, SIGTERM, the time limit) kills it before re-raising
+            res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False,
+                                 preexec_fn=parent_death_preexec())
         except subprocess.TimeoutExpired:
             raise BrowserError(f"{exe}: no answer within {timeout:g} s") from None
     if res.returncode != 0:
