@@ -51,12 +51,13 @@ def test_real_dats_reads_with_its_bench_fit(name, realdata):
     assert {"K(r)", "X(r)", "K(i)", "X(i)", "Zmax"} <= set(fit["extra"])
     assert "Sd" not in fit["extra"] and "Vas" not in fit["values"] and "Bl" not in fit["values"]
     assert all("unit" in v for v in fit["extra"].values())
-    # rows 24-100 (1.029-9.243 Hz) repeat in runs; the first row kept is line 101, 9.514 Hz
-    assert m.n_points == 344 - 77
-    assert m.meta["dropped_band_hz"] == [1.029, 9.243]
-    assert m.f_hz[0] == pytest.approx(9.514, rel=1e-12)
+    # rows 24-100 (1.029-9.243 Hz) repeat in runs, 25 distinct values over 1.029-9.514 Hz (a
+    # resolution of 0.34 Hz); the grid step stays below that up to line 107, 11.314 Hz
+    assert m.n_points == 344 - 84
+    assert m.meta["dropped_band_hz"] == [1.029, 11.314]
+    assert m.f_hz[0] == pytest.approx(11.645, rel=1e-12)
     notes = [n for n in m.meta["notices"] if "dropped" in n]
-    assert len(notes) == 1 and "1.029-9.243 Hz" in notes[0]
+    assert len(notes) == 1 and "1.029-11.31 Hz" in notes[0]
     assert sum("dropped" in w for w in warned) == 1
     assert m.f_hz[-1] == pytest.approx(20642.546, rel=1e-12)
 
@@ -80,9 +81,10 @@ def test_both_header_styles_and_line_ends(name, style):
         assert extra["Zmax"]["value"] == 37.2
     if name == "dats_percent_star_crlf.txt":  # 'L(e)= 0' and 'BL= 0': not computed
         assert "Le" not in v and "Bl" not in v
-    # the fixture's 8.977 Hz and below repeat one 0.3 Hz FFT bin's value (make_corpus.dats_rows)
-    assert m.meta["dropped_band_hz"][1] == pytest.approx(8.977)
-    assert np.all(m.f_hz > 9.0)
+    # below 10 Hz the fixture's rows take their 0.3 Hz FFT bin's value (make_corpus.dats_rows); the
+    # band extends while the 1/24-octave step is below the estimated resolution
+    assert m.meta["dropped_band_hz"][1] == pytest.approx(10.372)
+    assert np.all(m.f_hz > 10.0)
 
 
 def test_dats_header_spl_line_is_not_a_sound_pressure_export(realdata):
@@ -123,7 +125,11 @@ def test_resolution_band_rule():
     f = np.arange(1.0, 21.0)
     a = np.r_[[5, 5, 5, 6, 6, 7, 7], np.arange(8.0, 21.0)]
     b = a * 2.0
-    assert resolution_band(f, a, b) == 7
+    # 3 distinct values over 1-8 Hz: a resolution of 2.33 Hz; the 1 Hz steps above stay below it,
+    # so the band extends to the cap, half the rows
+    assert resolution_band(f, a, b) == 10
+    g = np.r_[f[:8], 8.0 + 3.0 * np.arange(1, 13)]  # 3 Hz steps above 8 Hz: the band ends at 7 rows
+    assert resolution_band(g, a, b) == 7
     # one coincidence of two equal rows high up is not a band
     a2 = np.arange(1.0, 21.0)
     a2[15] = a2[14]
@@ -146,4 +152,4 @@ def test_plain_table_with_repeated_low_rows_names_them_and_keeps_them(tmp_path):
 def test_info_shows_the_dats_file(capsys):
     assert main(["info", str(BENCH / "dats_star_crlf.txt")]) == 0
     out = capsys.readouterr()
-    assert "dats" in out.out and "dropped 76 of 344 rows" in out.out + out.err
+    assert "dats" in out.out and "dropped 81 of 344 rows" in out.out + out.err

@@ -5,7 +5,8 @@ Z(f)"``), a quoted line naming the column groups (``"Measured"``, ``"Fitted"``; 
 frequency and a magnitude column), a quoted unit line (``"Frequency [Hz]" "[Ohm]" "Frequency [Hz]"
 "[Ohm]"``), then tab-separated numbers. Magnitude only: there is no phase.
 
-Recognised by the quoted title, a group line naming ``Measured`` and a unit line with ``[Hz]``.
+Recognised by the quoted title, a group line naming ``Measured`` or ``Fitted`` and a unit line
+with ``[Hz]``.
 The measured group is read (as a magnitude-only curve, :func:`._bench.bench_measurement`); the
 fitted group is kept as the bench's own fit, ``meta["bench_fit"] = {"bench": "Klippel LPM",
 "source": path, "values": {}, "curve": {"f_hz": [...], "abs_z_ohm": [...]}}``.
@@ -47,11 +48,13 @@ def _cells(line: str) -> list[str]:
 
 
 def looks_like_klippel(text: str) -> bool:
-    """A quoted title line, then a quoted group line naming 'Measured' and a unit line naming [Hz]."""
+    """A quoted title line, then a quoted group line (``"Measured"``, ``"Fitted"``) and a quoted unit
+    line naming ``[Hz]``."""
     head = _head(text, 3)
     if len(head) < 3 or not all(ln.startswith('"') for _, ln in head):
         return False
-    return any(c.lower() == "measured" for c in _cells(head[1][1])) and "[hz]" in head[2][1].lower()
+    groups = {c.lower() for c in _cells(head[1][1]) if c}
+    return bool(groups & {"measured", "fitted"}) and "[hz]" in head[2][1].lower()
 
 
 def _unit(cell: str) -> str:

@@ -10,9 +10,12 @@ Rule (applied by every reader of magnitude/phase text): a *run* is two or more c
 (in frequency order) with the same magnitude and the same phase (bitwise equal as written). The
 dropped band runs from the first row to the last row of the highest run such that, at or below
 it, at least half of the rows belong to runs and there are at least :data:`MIN_REPEATED` such
-rows. Every row in that band is dropped (the rows between runs there are interpolated from the
-same coarse bins), and one note names the band [Hz]. An isolated coincidence higher up (two
-equal neighbouring rows in a 3-digit export) does not qualify.
+rows. The analyser's resolution is then estimated as that band's width over the number of distinct
+values in it, and the band extends over the following rows whose spacing to the next row is still
+below it (a 1/24-octave grid over 0.3 Hz bins: up to about 10 Hz). Every row in the band is
+dropped (the rows between runs there are interpolated from the same coarse bins), and one note
+names the band [Hz]. An isolated coincidence higher up (two equal neighbouring rows in a 3-digit
+export) does not qualify.
 """
 
 from __future__ import annotations
@@ -52,7 +55,15 @@ def resolution_band(f_hz: np.ndarray, a: np.ndarray, b: np.ndarray) -> int:
         if counts[i] >= MIN_REPEATED and counts[i] >= 0.5 * (i + 1):
             best = i + 1
     # keep at least half the file: a curve that is flat over most of its band is not an artefact
-    return best if best <= n // 2 else 0
+    if best == 0 or best > n // 2:
+        return 0
+    # the analyser's resolution: the band's width over the number of distinct values in it; above
+    # the band, rows closer than that to the next are still finer than the resolution
+    distinct = 1 + int(np.count_nonzero(~same[:best - 1]))
+    resolution = (f_hz[best] - f_hz[0]) / distinct
+    while best < n // 2 and f_hz[best + 1] - f_hz[best] < resolution:
+        best += 1
+    return best
 
 
 def drop_note(path, f_hz: np.ndarray, k: int, n: int) -> str:

@@ -135,6 +135,19 @@ def _refuse_sound_pressure(path: Path, comments: list[str], header: str | None, 
                               "export the impedance (|Z| and phase, or Z/Y parts) of the same measurement")
 
 
+def _only_impedance(body: list[tuple[int, str]]) -> bool:
+    """Rows that can only be Hz, ohm, degrees: three numeric columns, positive frequencies and
+    magnitudes, every phase within +-90 deg and some beyond +-pi/2 (so not radians)."""
+    try:
+        arr = np.array([[float(c) for c in split_cells(s, detect_delimiter(s))] for _, s in body])
+    except ValueError:
+        return False
+    if arr.ndim != 2 or arr.shape[1] != 3 or arr.shape[0] < 3 or not np.isfinite(arr).all():
+        return False
+    ph = np.abs(arr[:, 2])
+    return bool((arr[:, :2] > 0).all() and ph.max() <= 90.0 and ph.max() > 1.05 * math.pi / 2)
+
+
 def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measurement:
     """Read a ``.zma`` or delimited text table; ``options`` holds normalised ``freq_unit``,
     ``phase_unit`` and ``quantity`` (``None`` where not given)."""
@@ -160,7 +173,13 @@ def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measure
         header_line, header = _comment_header(last_comment, body[0][0], text, path)
         if header is not None:
             notices.append(f"column names taken from comment line {header_line}")
-    _refuse_sound_pressure(path, comments, header, header_line)
+    if path.suffix.lower() == ".frd" and header is None and _only_impedance(body):
+        is_zma = True
+        notices.append(f"{path}: a .frd file without a header, read as frequency [Hz], |Z| [ohm], phase "
+                       "[deg]: the only units its numbers can have (every phase within +-90 deg, as a "
+                       "passive impedance's; a sound-pressure response's phase leaves that range)")
+    else:
+        _refuse_sound_pressure(path, comments, header, header_line)
     delim = detect_delimiter(body[0][1])
     decimal_comma = any(uses_decimal_comma(ln, delim) for _, ln in body)
     if decimal_comma:

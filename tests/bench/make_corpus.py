@@ -10,6 +10,7 @@ export (Dayton Audio Test System, Klippel LPM, LIMP/ARTA, REW, CLIO), restated i
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -82,10 +83,191 @@ def dats_percent(star: bool = False) -> str:
     return "\n".join(head + rows) + "\n"
 
 
+def rows3(f, fmt="{:.4f}\t{:.4f}\t{:.3f}", z=None) -> list[str]:
+    z = impedance(f) if z is None else z
+    return [fmt.format(fi, abs(zi), math.degrees(np.angle(zi))) for fi, zi in zip(f, z, strict=True)]
+
+
+def klippel(*, fitted_rows: int | None = None, groups=("Measured", "Fitted"), unit="[Ohm]") -> str:
+    """Klippel LPM text export: quoted title, group line, unit line, tab-separated numbers."""
+    f = log_grid(5.0, 160, per_octave=16)
+    fitted = impedance(f, {**DRIVER, "Rms": 1.05})  # the bench's own (slightly different) fit
+    n_fit = f.size if fitted_rows is None else fitted_rows
+    lines = ['"Magnitude of electric impedance Z(f)"',
+             "\t".join(f'"{g}"\t""' for g in groups),
+             "\t".join(f'"Frequency [Hz]"\t"{unit}"' for _ in groups)]
+    for i, (fi, zi, zf) in enumerate(zip(f, impedance(f), fitted, strict=True)):
+        cells = [f"{fi:.5g}", f"{abs(zi):.5g}"]
+        if len(groups) > 1:
+            cells += [f"{fi:.5g}", f"{abs(zf):.5g}"] if i < n_fit else ["", ""]
+        if groups[0] != "Measured":
+            cells = [f"{fi:.5g}", f"{abs(zf):.5g}"]
+        lines.append("\t".join(cells))
+    return "\n".join(lines) + "\n"
+
+
+def lim(note: str = "", n: int = 200, truncate: int = 0) -> bytes:
+    from bayes_emt.io.lim import lim_bytes
+
+    f = log_grid(10.0, n, per_octave=20)
+    z = impedance(f)
+    raw = lim_bytes(f, np.abs(z), np.degrees(np.angle(z)), note=note)
+    return raw[:len(raw) - truncate] if truncate else raw
+
+
+REW_HEAD = ["* Measurement data measured by REW V5.20.13", "* Source: Focusrite USB, L, volts: 0.500",
+            "* Format: 1/48 octave", "* Dated: 12-Mar-2024 10:41:02", "* REW Settings:",
+            "*  C-Weighting compensation: Off (for impedance)", "* Note: woofer impedance, free air",
+            "* Measurement: Impedance woofer", "* Smoothing: None", "* Frequency Step: 1/48 octave",
+            "* Start Frequency: 10.000 Hz"]
+
+
+def rew(head: list[str], column_line: str | None, sep: str = " ", comma: bool = False) -> str:
+    f = log_grid(10.0, 300, per_octave=48)
+    rows = rows3(f, fmt="{:.3f}" + sep + "{:.4f}" + sep + "{:.3f}")
+    if comma:
+        rows = [r.replace(".", ",") for r in rows]
+    return "\n".join(head + ([column_line] if column_line else []) + rows) + "\n"
+
+
+def table(header: str | None, f, cols, sep: str, comments=(), fmts=("{:.6g}", "{:.6g}", "{:.6g}")) -> str:
+    lines = list(comments) + ([header] if header else [])
+    for row in zip(f, *cols, strict=True):
+        lines.append(sep.join(fm.format(v) for fm, v in zip(fmts, row, strict=True)))
+    return "\n".join(lines) + "\n"
+
+
 def main() -> None:
+    manifest = {}
+
+    def reads(name, *, points, fmt, options=None, magnitude_only=False, notice=None, bench=None,
+              dropped_below=None, rel=2e-3, deg=0.06):
+        manifest[name] = {"reads": {"points": points, "format": fmt, "options": options or {},
+                                    "magnitude_only": magnitude_only, "notice": notice, "bench": bench,
+                                    "dropped_below_hz": dropped_below, "rel": rel, "deg": deg}}
+
+    def refused(name, fragment, options=None):
+        manifest[name] = {"refused": fragment, "options": options or {}}
+
+    # ---- DATS --------------------------------------------------------------------------------
     write("dats_star_crlf.txt", dats_star(), newline="\r\n")
+    reads("dats_star_crlf.txt", points=263, fmt="dats", bench="DATS", dropped_below=10.5)
     write("dats_percent.txt", dats_percent())
+    reads("dats_percent.txt", points=263, fmt="dats", bench="DATS", dropped_below=10.5)
     write("dats_percent_star_crlf.txt", dats_percent(star=True), newline="\r\n")
+    reads("dats_percent_star_crlf.txt", points=263, fmt="dats", bench="DATS", dropped_below=10.5)
+    write("dats_star_bom_lf.txt", dats_star(), bom=True)
+    reads("dats_star_bom_lf.txt", points=263, fmt="dats", bench="DATS", dropped_below=10.5)
+    write("dats_trailing_junk.txt", dats_star() + "End of data\n")
+    refused("dats_trailing_junk.txt", "dats_trailing_junk.txt:368: not a number: 'End'")
+    text = dats_star().splitlines()
+    text[200] = "20.000    \t6.123"
+    write("dats_short_row.txt", "\n".join(text) + "\n")
+    refused("dats_short_row.txt", "dats_short_row.txt:201: expected 3 columns, found 2")
+    # ---- Klippel -----------------------------------------------------------------------------
+    write("klippel_lpm.txt", klippel())
+    reads("klippel_lpm.txt", points=160, fmt="klippel", magnitude_only=True, bench="Klippel LPM",
+          notice="holds |Z| only", rel=2e-4)
+    write("klippel_lpm_crlf_short_fit.txt", klippel(fitted_rows=120), newline="\r\n")
+    reads("klippel_lpm_crlf_short_fit.txt", points=160, fmt="klippel", magnitude_only=True,
+          bench="Klippel LPM", rel=2e-4)
+    write("klippel_fitted_only.txt", klippel(groups=("Fitted",)))
+    refused("klippel_fitted_only.txt", "klippel_fitted_only.txt:2: no 'Measured' column group")
+    write("klippel_db.txt", klippel(unit="[dB]"))
+    refused("klippel_db.txt", "klippel_db.txt:3: group 'Measured' has magnitude unit 'dB'")
+    # ---- LIMP --------------------------------------------------------------------------------
+    (HERE / "limp.lim").write_bytes(lim())
+    reads("limp.lim", points=200, fmt="lim", rel=1e-6, deg=1e-4)
+    (HERE / "limp_note.lim").write_bytes(lim(note="woofer, free air, 1 V"))
+    reads("limp_note.lim", points=200, fmt="lim", rel=1e-6, deg=1e-4)
+    (HERE / "limp_truncated.lim").write_bytes(lim(truncate=500))
+    refused("limp_truncated.lim", "limp_truncated.lim: byte")
+    f = log_grid(10.0, 200, per_octave=20)
+    write("limp_export.txt", table("Freq[Hz]\tImpedance[Ohm]\tPhase[Deg]", f,
+                                   [np.abs(impedance(f)), np.degrees(np.angle(impedance(f)))], "\t",
+                                   comments=["* LIMP impedance export", "* Source file = woofer.lim"]))
+    reads("limp_export.txt", points=200, fmt="tsv", rel=1e-5, deg=1e-3)
+    # ---- ARTA --------------------------------------------------------------------------------
+    write("arta_impedance.txt", table("Freq[Hz]  Z[Ohm]  Phase[Deg]", f,
+                                      [np.abs(impedance(f)), np.degrees(np.angle(impedance(f)))], "  ",
+                                      comments=["* Source file = woofer.pir"]), newline="\r\n")
+    reads("arta_impedance.txt", points=200, fmt="text", rel=1e-5, deg=1e-3)
+    write("arta_spl.txt", table("Freq[Hz]  dBSPL  Phase[Deg]", f, [80 + 0 * f, 170 - f / 200], "  ",
+                                comments=["* Source file = woofer.pir"]))
+    refused("arta_spl.txt", "arta_spl.txt:2: header 'Freq[Hz]  dBSPL  Phase[Deg]': a sound-pressure")
+    # ---- REW ---------------------------------------------------------------------------------
+    write("rew_impedance.txt", rew(REW_HEAD, "* Freq(Hz) Z(ohms) Phase(degrees)"))
+    reads("rew_impedance.txt", points=300, fmt="rew", notice="read as impedance")
+    write("rew_semicolon_decimal_comma.txt", rew(REW_HEAD, None, sep=";", comma=True), newline="\r\n")
+    reads("rew_semicolon_decimal_comma.txt", points=300, fmt="rew", notice="decimal commas")
+    write("rew_tab.txt", rew(REW_HEAD, "* Freq(Hz)\tZ(ohms)\tPhase(degrees)", sep="\t"))
+    reads("rew_tab.txt", points=300, fmt="rew")
+    spl_head = [REW_HEAD[0], "* Source: Focusrite USB", "* Format: 1/48 octave"]
+    write("rew_spl_label.txt", rew(spl_head, "* Freq(Hz) SPL(dB) Phase(degrees)"))
+    refused("rew_spl_label.txt", "rew_spl_label.txt:4: comment '* Freq(Hz) SPL(dB) Phase(degrees)': a "
+            "sound-pressure (SPL) frequency response, not an impedance; if this REW export is an "
+            "impedance measurement, pass --quantity Z")
+    write("rew_spl_label_as_z.txt", rew(spl_head, "* Freq(Hz) SPL(dB) Phase(degrees)"))
+    reads("rew_spl_label_as_z.txt", points=300, fmt="rew", options={"quantity": "Z"})
+    write("rew_no_context.txt", rew(spl_head, None))
+    refused("rew_no_context.txt", "rew_no_context.txt: a REW export that does not say whether its magnitude "
+            "is an impedance [ohm] or a sound pressure [dB]; for an impedance measurement pass --quantity Z")
+    # ---- CLIO-like and generic tables --------------------------------------------------------
+    write("clio_like.txt", table("Frequency[Hz]\tModule[Ohm]\tPhase[Deg]", f,
+                                 [np.abs(impedance(f)), np.degrees(np.angle(impedance(f)))], "\t",
+                                 comments=["# CLIO impedance export", "# woofer, free air"]))
+    reads("clio_like.txt", points=200, fmt="tsv", rel=1e-5, deg=1e-3)
+    write("clio_like_utf16.txt", table("Frequency[Hz]\tModule[Ohm]\tPhase[Deg]", f,
+                                       [np.abs(impedance(f)), np.degrees(np.angle(impedance(f)))], "\t"),
+          newline="\r\n", encoding="utf-16")
+    reads("clio_like_utf16.txt", points=200, fmt="tsv", rel=1e-5, deg=1e-3)
+    zf = impedance(f)
+    write("plain_nohdr.frd", table(None, f, [np.abs(zf), np.degrees(np.angle(zf))], " "))
+    reads("plain_nohdr.frd", points=200, fmt="zma", notice="a .frd file without a header", rel=1e-5,
+          deg=1e-3)
+    write("spl_nohdr.frd", table(None, f, [85 + 0 * f, 170 - f / 100], " "))
+    refused("spl_nohdr.frd", "spl_nohdr.frd: a .frd file: a sound-pressure (SPL) frequency response")
+    write("plain_nohdr.txt", table(None, f, [np.abs(zf), np.degrees(np.angle(zf))], "\t"))
+    refused("plain_nohdr.txt", "plain_nohdr.txt: no header line, so nothing says what the columns hold; "
+            "for frequency, magnitude, phase columns pass --freq-unit hz|rad/s")
+    reads_opts = {"freq_unit": "hz", "phase_unit": "deg", "quantity": "Z"}
+    write("plain_nohdr_with_options.txt", table(None, f, [np.abs(zf), np.degrees(np.angle(zf))], "\t"))
+    reads("plain_nohdr_with_options.txt", points=200, fmt="tsv", options=reads_opts, rel=1e-5, deg=1e-3)
+    write("khz_mohm.csv", table("Frequency (kHz),|Z| (mOhm),Phase (deg)", f / 1e3,
+                                [np.abs(zf) * 1e3, np.degrees(np.angle(zf))], ","))
+    reads("khz_mohm.csv", points=200, fmt="csv", rel=1e-5, deg=1e-3)
+    write("reim_semicolon_comma.csv", table("Freq (Hz);Re Z (ohm);Im Z (ohm)", f, [zf.real, zf.imag],
+                                            ";", fmts=("{:.6f}",) * 3).replace(".", ","))
+    reads("reim_semicolon_comma.csv", points=200, fmt="csv", notice="decimal commas", rel=1e-5, deg=1e-3)
+    write("omega_radians.tsv", table("omega (rad/s)\t|Z| (ohm)\tphase (rad)", 2 * math.pi * f,
+                                     [np.abs(zf), np.angle(zf)], "\t", fmts=("{:.8g}",) * 3))
+    reads("omega_radians.tsv", points=200, fmt="tsv", rel=1e-6, deg=1e-4)
+    write("admittance_ms.csv", table("f (Hz),|Y| (mS),phase (deg)", f,
+                                     [1e3 / np.abs(zf), -np.degrees(np.angle(zf))], ",",
+                                     fmts=("{:.8g}",) * 3))
+    reads("admittance_ms.csv", points=200, fmt="csv", rel=1e-6, deg=1e-4)
+    write("latin1_degree.txt", table("Freq (Hz)\tZ (ohm)\tPhase (°)", f,
+                                     [np.abs(zf), np.degrees(np.angle(zf))], "\t"), encoding="latin-1")
+    reads("latin1_degree.txt", points=200, fmt="tsv", rel=1e-5, deg=1e-3)
+    write("zma_comment_header_crlf.zma",
+          table(None, f, [np.abs(zf), np.degrees(np.angle(zf))], "\t",
+                comments=["* woofer free air", "* freq(Hz)\t|Z|(ohm)\tphase(deg)"]), newline="\r\n")
+    reads("zma_comment_header_crlf.zma", points=200, fmt="zma", rel=1e-5, deg=1e-3)
+    write("unknown_unit.csv", table("Frequency (furlongs),|Z| (ohm),Phase (deg)", f,
+                                    [np.abs(zf), np.degrees(np.angle(zf))], ","))
+    refused("unknown_unit.csv", "unknown_unit.csv:1: unknown unit 'furlongs'")
+    write("db_magnitude.csv", table("Frequency (Hz),|Z| (dB),Phase (deg)", f,
+                                    [20 * np.log10(np.abs(zf)), np.degrees(np.angle(zf))], ","))
+    refused("db_magnitude.csv", "db_magnitude.csv:1: column '|Z| (dB)' is in dB")
+    rows = table("Frequency (Hz),|Z| (ohm),Phase (deg)", f, [np.abs(zf), np.degrees(np.angle(zf))], ",")
+    write("trailing_junk.csv", rows + "Exported by AnalyzerX 2.1\n")
+    refused("trailing_junk.csv", "trailing_junk.csv:202: expected 3 columns, found 1")
+    write("touchstone_z.s1p", "! impedance of a woofer\n# Hz Z MA R 1\n" + "\n".join(
+        f"{fi:.8g} {abs(zi):.8g} {math.degrees(np.angle(zi)):.8g}"
+        for fi, zi in zip(f, zf, strict=True)) + "\n")
+    reads("touchstone_z.s1p", points=200, fmt="touchstone", rel=1e-6, deg=1e-4)
+    (HERE / "manifest.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    print(f"{len(manifest)} files")
 
 
 if __name__ == "__main__":
