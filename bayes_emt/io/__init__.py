@@ -34,6 +34,7 @@ from ._rows import read_text
 from .dats import looks_like_dats, read_dats
 from .klippel import looks_like_klippel, read_klippel
 from .lim import looks_like_lim, read_lim
+from .phase import drop_phase
 from .rew import looks_like_rew, read_rew
 from .table import NATIVE_HEADER, NATIVE_MARKER, read_table
 from .touchstone import looks_like_touchstone, read_touchstone
@@ -65,7 +66,8 @@ def _options(freq_unit, phase_unit, quantity) -> dict:
 
 
 def read_measurement(path: str | Path, *, freq_unit: FreqUnit | None = None,
-                     phase_unit: PhaseUnit | None = None, quantity: Quantity | None = None) -> Measurement:
+                     phase_unit: PhaseUnit | None = None, quantity: Quantity | None = None,
+                     magnitude_only: bool = False) -> Measurement:
     """Read a measurement file into a :class:`~bayes_emt.measurement.Measurement` (admittance [S], rad/s).
 
     Parameters
@@ -78,6 +80,9 @@ def read_measurement(path: str | Path, *, freq_unit: FreqUnit | None = None,
         Unit of the phase column when the header does not say.
     quantity : {'Z', 'Y'}, optional
         Whether the values are impedance [Ω] or admittance [S] when the header does not say.
+    magnitude_only : bool
+        Drop the phase and keep |Z| alone (:func:`.phase.drop_phase`): fits then use log|Z| only.
+        Magnitude-only exports (Klippel LPM) are read so without it.
 
     Returns
     -------
@@ -96,8 +101,11 @@ def read_measurement(path: str | Path, *, freq_unit: FreqUnit | None = None,
         frequency, fewer than 3 points, a unit the header does not state and no option gives, or an
         option that contradicts the header.
     """
-    path = Path(path)
-    options = _options(freq_unit, phase_unit, quantity)
+    meas = _read(Path(path), _options(freq_unit, phase_unit, quantity))
+    return drop_phase(meas) if magnitude_only else meas
+
+
+def _read(path: Path, options: dict) -> Measurement:
     suffix = path.suffix.lower()
     if re.fullmatch(r"\.s\d+p", suffix) and suffix != ".s1p":
         raise DataFormatError(f"{path}: a {suffix[2:-1]}-port Touchstone file; a transducer's "

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ import numpy as np
 from ..errors import DataFormatError
 from ..measurement import Measurement
 from ._bench import bench_measurement
+from .phase import PHASE_ABSENT_NOTE
 
 __all__ = ["looks_like_klippel", "read_klippel"]
 
@@ -121,7 +123,8 @@ def read_klippel(path: Path, text: str) -> Measurement:
     curve = np.array(sorted(fitted)) if fitted else np.empty((0, 2))
     fit = {"bench": "Klippel LPM", "source": str(path), "values": {},
            "curve": {"f_hz": curve[:, 0].tolist(), "abs_z_ohm": curve[:, 1].tolist()}}
-    notices = [f"{path}: a Klippel LPM export holds |Z| only (no phase): fitted on log|Z| alone"]
+    notices = [f"{path}: a Klippel LPM export holds |Z| only; {PHASE_ABSENT_NOTE}"]
     meta = {"header": title, "n_header_lines": unit_line, "bench_fit": fit, "title_line": title_line}
+    warnings.warn(notices[0], UserWarning, stacklevel=4)
     return bench_measurement(path, arr, linenos, fmt="klippel", notices=notices, meta=meta,
                              magnitude_only=True)

@@ -32,7 +32,8 @@ def run(args) -> int:
     from ...io import read_measurement
 
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
-                            quantity=args.quantity).select(args.omega_min, args.omega_max)
+                            quantity=args.quantity,
+                            magnitude_only=args.magnitude_only).select(args.omega_min, args.omega_max)
     m = meas.meta
     rep = {"magphase": "magnitude and phase", "reim": "real and imaginary parts",
            "dbphase": "dB and phase"}.get(m.get("representation"), m.get("representation"))
