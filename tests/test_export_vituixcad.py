@@ -44,9 +44,10 @@ def test_line_parses_back_to_the_same_values(tmp_path, driver):
     (row,) = read_vituixcad(path)
     assert row["Manufacturer"] == "Invented" and row["Model"] == "W6"
     # every T/S value in the column's unit, to the 10 significant digits written
-    expect = {"Re [ohm]": ts["Re"], "fs [Hz]": ts["fs"], "Qms": ts["Qms"], "Qes": ts["Qes"], "Qts": ts["Qts"],
-              "Rms [Ns/m]": ts["Rms"], "Mms [g]": ts["Mms"] * 1e3, "Cms [mm/N]": ts["Cms"] * 1e3,
-              "Vas [l]": ts["Vas"] * 1e3, "Sd [cm2]": sim.sd * 1e4, "BL [Tm]": ts["Bl"], "Le [mH]": ts["Le"] * 1e3,
+    expect = {"Re [ohm]": ts["Re"], "fs [Hz]": ts["fs"], "Qms": ts["Qms"], "Qes": ts["Qes"],
+              "Qts": ts["Qts"], "Rms [Ns/m]": ts["Rms"], "Mms [g]": ts["Mms"] * 1e3,
+              "Cms [mm/N]": ts["Cms"] * 1e3, "Vas [l]": ts["Vas"] * 1e3, "Sd [cm2]": sim.sd * 1e4,
+              "BL [Tm]": ts["Bl"], "Le [mH]": ts["Le"] * 1e3,
               "BL\u00b2/Re": ts["Bl"] ** 2 / ts["Re"], "Ke [sH]": vituixcad_ke(coil["K_semi"], coil["n_semi"])}
     for col, value in expect.items():
         assert row[col] == pytest.approx(value, rel=1e-9), col
@@ -67,8 +68,8 @@ def test_cli_writes_the_line(tmp_path, driver, capsys):
     ts.save(tmp_path / "ts.json")
     write_json(tmp_path / "fit.json", fit.to_json_dict())
     out = tmp_path / "vx.txt"
-    assert main(["export", str(tmp_path / "ts.json"), "--vituixcad", str(out), "--fit", str(tmp_path / "fit.json"),
-                 "--name", "W6"]) == 0
+    assert main(["export", str(tmp_path / "ts.json"), "--vituixcad", str(out),
+                 "--fit", str(tmp_path / "fit.json"), "--name", "W6"]) == 0
     (row,) = read_vituixcad(out)
     assert row["Model"] == "W6" and row["fs [Hz]"] == pytest.approx(ts["fs"], rel=1e-9) and "Ke [sH]" in row
     # a fit without a semi-inductance has no Ke to give
