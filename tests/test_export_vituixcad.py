@@ -48,7 +48,8 @@ def test_line_parses_back_to_the_same_values(tmp_path, driver):
               "Qts": ts["Qts"], "Rms [Ns/m]": ts["Rms"], "Mms [g]": ts["Mms"] * 1e3,
               "Cms [mm/N]": ts["Cms"] * 1e3, "Vas [l]": ts["Vas"] * 1e3, "Sd [cm2]": sim.sd * 1e4,
               "BL [Tm]": ts["Bl"], "Le [mH]": ts["Le"] * 1e3,
-              "BL\u00b2/Re": ts["Bl"] ** 2 / ts["Re"], "Ke [sH]": vituixcad_ke(coil["K_semi"], coil["n_semi"])}
+              "BL\u00b2/Re": ts["Bl"] ** 2 / ts["Re"],
+              "Ke [sH]": vituixcad_ke(coil["K_semi"], coil["n_semi"])}
     for col, value in expect.items():
         assert row[col] == pytest.approx(value, rel=1e-9), col
     for empty in ("Leb [mH]", "Rss [ohm]", "Pmax [W]", "Xmax [mm]"):
