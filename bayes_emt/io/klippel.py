@@ -71,6 +71,8 @@ def read_klippel(path: Path, text: str) -> Measurement:
     groups, units = _cells(groups_text), _cells(units_text)
     # a group's name stands over its frequency column; the next cell (often empty) is its magnitude
     starts = [(i, g) for i, g in enumerate(groups) if g]
+    if len(starts) == len(groups) and 2 * len(groups) == len(units):
+        starts = [(2 * i, g) for i, g in enumerate(groups)]  # one name per group, no empty cells
     layout = {}
     for i, g in starts:
         units_here = [*units[i:i + 2], "", ""]

@@ -171,6 +171,11 @@ def main() -> None:
     write("klippel_lpm_crlf_short_fit.txt", klippel(fitted_rows=120), newline="\r\n")
     reads("klippel_lpm_crlf_short_fit.txt", points=160, fmt="klippel", magnitude_only=True,
           bench="Klippel LPM", rel=2e-4)
+    compact = klippel().splitlines()
+    compact[1], compact[2] = '"Measured" "Fitted"', '"Frequency [Hz]" "[Ohm]" "Frequency [Hz]" "[Ohm]"'
+    write("klippel_compact_header.txt", "\n".join(compact) + "\n")
+    reads("klippel_compact_header.txt", points=160, fmt="klippel", magnitude_only=True, bench="Klippel LPM",
+          rel=2e-4)
     write("klippel_fitted_only.txt", klippel(groups=("Fitted",)))
     refused("klippel_fitted_only.txt", "klippel_fitted_only.txt:2: no 'Measured' column group")
     write("klippel_db.txt", klippel(unit="[dB]"))
