@@ -58,7 +58,7 @@ def dats_star(newline: str = "\r\n") -> str:
     f = log_grid(1.029, 344)
     head = ["* This data was exported from the Dayton Audio Test System: DATS", "*",
             "* Piston Diameter = 130 mm", f"* f(s)= {fs_hz():.4g} Hz", "* R(e)= 5.6 Ohms",
-            "* Z(max)= 37.2 Ohms", "* Q(ms)= 6.35", "* Q(es)= 0.514", "* Q(ts)= 0.476",
+            "* Z(max)= 37.2 Ohms", "* Q(ms)= 3.52", "* Q(es)= 0.582", "* Q(ts)= 0.499",
             "* V(as)= 17.2 liters     (0.607 cubic feet)", "* L(e)= 0.4 mH", "* n(0)= 0.41 %",
             "* SPL= 88.1 1W/1m", "* M(ms)= 14.2 grams", "* C(ms)= 0.95 mm/N", "* BL= 6.1 ",
             "* K(r)= 0.0521 ", "* X(r)= 0.601 ", "* K(i)= 0.00712 ", "* X(i)= 0.688 ", "*", "*",
@@ -72,11 +72,11 @@ def dats_percent(star: bool = False) -> str:
     f = log_grid(1.029, 344)
     if star:
         head = ["% * This data was exported from the Dayton Audio Test System: DATS", "% *",
-                f"% * f(s)= {fs_hz():.4g} Hz", "% * R(e)= 5.6 Ohms", "% * Q(ms)= 6.35", "% * Q(es)= 0.514",
-                "% * Q(ts)= 0.476", "% * L(e)= 0 mH", "% * BL= 0 ", "% *"]
+                f"% * f(s)= {fs_hz():.4g} Hz", "% * R(e)= 5.6 Ohms", "% * Q(ms)= 3.52", "% * Q(es)= 0.582",
+                "% * Q(ts)= 0.499", "% * L(e)= 0 mH", "% * BL= 0 ", "% *"]
     else:
         head = ["% D 130 [mm]", "% Re 5.6 [Ohms]", f"% Fs {fs_hz():.4g} [Hz]", "% Zm 37.2 [Ohms]",
-                "% BL 6.1 [N/A]", "% Qms 6.35", "% Qes 0.514", "% Qts 0.476", "% Vas 17.2 [liters]",
+                "% BL 6.1 [N/A]", "% Qms 3.52", "% Qes 0.582", "% Qts 0.499", "% Vas 17.2 [liters]",
                 "% L10k 0.31 [mH]", "% n0 0.41 [%]", "% dBSPL 88.1", "% Ms 14.2 [grams]", "% Cms 0.95 [mm/N]"]
     head.append("% Freq Impedance Phase")
     rows = [f"{fi:.3f}\t{m:.3f}\t{p:.3f}" for fi, m, p in dats_rows(f, impedance(f))]
