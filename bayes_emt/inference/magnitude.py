@@ -14,11 +14,13 @@ the samplers, evidence and checkpoints work unchanged.
 
 What |Z| identifies: a moving-coil transducer's impedance is a minimum-phase one-port, so over an
 infinite band its magnitude fixes its phase (Bode's gain-phase relation) and every parameter a
-complex recording identifies. Over a finite band what is lost is mainly the split of the coil's
-high-frequency impedance between loss (real) and inductance (imaginary) terms at the band's top
-(Le and the coil-loss parameters have wider intervals than with phase); the resonance (fs, Qms,
-Qes) and Re are fixed by the magnitude alone, as in Small's method. A pure delay or any
-non-minimum-phase effect of the setup is invisible.
+complex recording identifies. Over a finite band the resonance frequency and Qms are fixed by the
+magnitude much as with phase; Re (and Qes, proportional to it) trades off against the coil-loss
+terms, since a lossy inductance ``K (jω)^n`` with a small exponent adds to Re Z what Re adds, and
+only the phase separates them (on the three DATS recordings with the UD+semi_inductance model,
+|Z| alone moved Re by up to 11 %); Le and the coil-loss parameters rest on the band's edges; a pure
+delay or other non-minimum-phase effect of the setup is invisible. An ohmmeter reading of Re
+(``--re``) restores Re and Qes.
 
 :class:`MagnitudeOnly` holds these densities as a mixin over the complex likelihood's attributes;
 :class:`bayes_emt.inference.likelihood.MagnitudeLikelihood` (``MagnitudeOnly`` over ``Likelihood``)
@@ -32,13 +34,8 @@ import math
 import numpy as np
 from scipy import special
 
-__all__ = ["MagnitudeOnly", "IDENTIFIABILITY_NOTE"]
+__all__ = ["MagnitudeOnly"]
 
-#: one line for outputs: what a |Z|-only fit does and does not determine
-IDENTIFIABILITY_NOTE = (
-    "the recording has no phase: fitted on log|Z| alone (the coil models are minimum-phase, so "
-    "|Z| determines fs, Re, Qms, Qes as well as with phase; Le and the coil-loss terms are less "
-    "certain, and a delay or other non-minimum-phase effect of the setup is invisible)")
 
 
 class MagnitudeOnly:

@@ -20,10 +20,11 @@ __all__ = ["PHASE_ABSENT_NOTE", "drop_phase"]
 
 #: what the outputs say of a |Z|-only recording
 PHASE_ABSENT_NOTE = (
-    "no phase: fitted on log|Z| alone. The coil models are minimum-phase one-ports, so |Z| "
-    "determines fs, Re, Qms and Qes as well as with phase; Le and the coil-loss terms are less "
-    "certain (their split between loss and inductance rests on the band's edges), and a delay or "
-    "other non-minimum-phase effect of the setup cannot be seen")
+    "no phase: fitted on log|Z| alone. The coil models are minimum-phase one-ports, so |Z| fixes fs "
+    "and Qms much as the phase does; Re, and Qes with it, trade off against the coil-loss terms (a "
+    "lossy inductance with a small exponent acts as a resistance, which only the phase tells apart), "
+    "Le and the coil-loss terms rest on the band's edges, and a delay or other non-minimum-phase "
+    "effect of the setup cannot be seen; a measured Re (--re) restores Re and Qes")
 
 
 def drop_phase(meas: Measurement, *, why: str = "--magnitude-only") -> Measurement:
