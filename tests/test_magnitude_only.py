@@ -76,9 +76,13 @@ def test_cli_fit_says_the_phase_was_absent(tmp_path, capsys):
 
     sim, _ = _free(3, 200)
     path = write_measurement(sim.free, tmp_path / "free.zma")
-    assert main(["fit", str(path), "--model", "I", "--magnitude-only"]) == 0
+    out = tmp_path / "f.json"
+    assert main(["fit", str(path), "--model", "I", "--magnitude-only", "--json", str(out)]) == 0
     err = capsys.readouterr().err
     assert "no phase: fitted on log|Z| alone" in err
+    import json
+
+    assert json.loads(out.read_text())["phase"] == "absent"
 
 
 def test_klippel_export_is_fitted_from_its_magnitude():

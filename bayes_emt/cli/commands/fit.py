@@ -121,6 +121,6 @@ def run(args) -> int:
         print(thiele_small(meas, model, re=re_reading, fast=True, models_for_spread=[]).summary())
     if args.json:
         write_json(args.json, {"kind": fit.kind, **fit.to_json_dict(), "procedure": args.procedure,
-                               "R0_by_procedure": r0})
+                               "R0_by_procedure": r0, "phase": "absent" if meas.phase_absent else "measured"})
         note(args, f"wrote {args.json}")
     return 0
