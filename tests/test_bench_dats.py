@@ -153,3 +153,5 @@ def test_info_shows_the_dats_file(capsys):
     assert main(["info", str(BENCH / "dats_star_crlf.txt")]) == 0
     out = capsys.readouterr()
     assert "dats" in out.out and "dropped 81 of 344 rows" in out.out + out.err
+    assert "bench fit   DATS: fs 43.33 Hz, Re 5.6 Ω, Qms 3.52, Qes 0.582, Qts 0.499" in out.out
+    assert "Mms 14.2 g" in out.out and "Vas 17.2 L" in out.out
