@@ -9,6 +9,7 @@ and the same resolution-artefact rule (:mod:`.resolution`).
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +47,6 @@ def bench_measurement(path: Path, arr: np.ndarray, linenos: list[int], *, fmt: s
         meta = {**meta, "dropped_band_hz": [float(s[0, 0]), float(s[k - 1, 0])]}
         keep = np.sort(order[k:])
         arr, linenos = arr[keep], [linenos[i] for i in keep]
-        import warnings
         warnings.warn(note, UserWarning, stacklevel=4)
     f_hz, mag = arr[:, 0], arr[:, 1]
     omega = 2 * math.pi * f_hz
