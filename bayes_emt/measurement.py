@@ -112,6 +112,13 @@ class Measurement:
         return 1.0 / self.Y
 
     @property
+    def phase_absent(self) -> bool:
+        """Whether the recording holds |Z| only (``meta["phase"] == "absent"``): ``Y`` then carries a
+        minimum-phase estimate of the phase, for starting a fit, and every fit, likelihood and
+        residual uses the magnitude alone."""
+        return self.meta.get("phase") == "absent"
+
+    @property
     def source(self) -> str:
         return str(self.meta.get("source", "<array>"))
 

@@ -132,7 +132,10 @@ class _Problem:
         z = np.broadcast_to(self.z_full, zf.shape[:-1] + self.z_full.shape).copy()
         z[..., self.free] = zf
         with np.errstate(all="ignore"):
-            d = (self.model.admittance(self.meas.omega, self.model.params.from_z(z)) - self.meas.Y) * self.w
+            y = self.model.admittance(self.meas.omega, self.model.params.from_z(z))
+            if self.meas.phase_absent:  # |Z| only: the log-magnitude error, on the same scale
+                return np.log(np.abs(y) / np.abs(self.meas.Y)) * (self.w * np.abs(self.meas.Y))
+            d = (y - self.meas.Y) * self.w
         return np.concatenate([d.real, d.imag], axis=-1)
 
     def residuals(self, zf):

@@ -57,10 +57,11 @@ from ..models import Model
 from ..params import NOISE_PARAMS, NU_SPEC, ParamSet, noise_param_set
 from ..params.priors import LogUniform, Uniform
 from .fastpath import JwPlan
+from .magnitude import MagnitudeOnly
 from .noise import GaussianNoiseSums
 
-__all__ = ["NOISE_PARAMS", "NU_SPEC", "Likelihood", "LikelihoodKind", "SamplingSpaceDensity",
-           "noise_param_set", "measurement_sha256"]
+__all__ = ["NOISE_PARAMS", "NU_SPEC", "Likelihood", "LikelihoodKind", "MagnitudeLikelihood",
+           "SamplingSpaceDensity", "noise_param_set", "measurement_sha256"]
 
 LikelihoodKind = Literal["gaussian", "student"]
 
@@ -174,6 +175,13 @@ class Likelihood(SamplingSpaceDensity):
     kind: LikelihoodKind = "gaussian"
     nu: float | None = 4.0
     noise_params: ParamSet | None = None
+
+    def __new__(cls, *args, **kwargs):
+        # a magnitude-only recording gets the likelihood on log|Y| (bayes_emt.inference.magnitude)
+        meas = kwargs.get("meas", args[1] if len(args) > 1 else None)
+        if cls is Likelihood and getattr(meas, "phase_absent", False):
+            cls = MagnitudeLikelihood
+        return object.__new__(cls)
 
     def __post_init__(self):
         # a term that depends on the sweep (thermal drift) is configured by the data it explains
@@ -321,3 +329,8 @@ class Likelihood(SamplingSpaceDensity):
                 "nu": self.nu, "n_points": self.meas.n_points,
                 "priors_sha256": _sha256(json.dumps(self.params.to_dict(), sort_keys=True).encode()),
                 "data_sha256": measurement_sha256(self.meas), "source": self.meas.source}
+
+
+@dataclass(frozen=True, eq=False)
+class MagnitudeLikelihood(MagnitudeOnly, Likelihood):
+    """:class:`Likelihood` of a magnitude-only recording, on ``ln|Y|`` (:mod:`.magnitude`)."""

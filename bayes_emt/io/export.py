@@ -28,7 +28,24 @@ Driver parameter files (from a :class:`~bayes_emt.thiele_small.ThieleSmall` reco
   ``Mmd = Mms − 0.575 Sd^1.5`` kg (the air-load approximation quoted in that thread for
   Hornresp's own conversion, Sd in m²). Not verified against Hornresp itself here.
 
-Both parameter files are parsed back by :func:`read_wdr` and :func:`read_hornresp`.
+* ``.txt`` (VituixCAD driver database, ``VituixCAD_Drivers.txt`` of its Enclosure tool): one
+  tab-separated header row, ``Manufacturer, Model, Type, Status, Size [in], Re [ohm], fs [Hz], Qms,
+  Qes, Qts, Rms [Ns/m], Mms [g], Cms [mm/N], Vas [l], Sd [cm2], BL [Tm], Pmax [W], Xmax [mm], Beta,
+  Z1k [ohm], Z10k [ohm], Le [mH], Leb [mH], Ke [sH], Rss [ohm], USPL [dB], BL²/Re, Revision,
+  Updated`` (the header as the open-source luchp/audioshape ``vituixcad.py`` writes it, which states
+  it was checked against the program), then one row per driver; cells the record does not give are
+  left empty, as the community database leaves them. The coil terms: VituixCAD's ``Ke`` [sH, i.e.
+  Ω·s^½] is the coefficient of a semi-inductor ``Ke·√(jω)`` (Vanderkooy 1989, JAES 37(3): the
+  skin-effect limit of eddy currents in the pole). Leach's ``K·(jω)^n`` (Leach 2002, JAES 50(6);
+  the model's ``semi_inductance`` term) is that element exactly when ``n = ½``, so ``Ke = K``; for
+  another ``n`` this writer sets ``Ke`` so that ``|Ke·√(jω)| = |K·(jω)^n|`` at 1 kHz,
+  ``Ke = K·(2π·1000)^(n−½)``, exact there and only approximate elsewhere (the row's ``Revision``
+  cell says so with the value of ``n``). ``Leb`` and ``Rss`` (a further inductance and the
+  resistance across the semi-inductor in VituixCAD's circuit) have no counterpart in ``K·(jω)^n``
+  and are left empty. ``Le`` is the T/S record's (the coil's inductance at 1 kHz).
+
+All three parameter files are parsed back by :func:`read_wdr`, :func:`read_hornresp` and
+:func:`read_vituixcad`.
 """
 
 from __future__ import annotations
@@ -44,7 +61,19 @@ from .._atomic import atomic_write_text
 from ..errors import DataFormatError
 
 __all__ = ["write_zma", "write_frd", "write_wdr", "read_wdr", "write_hornresp", "read_hornresp",
-           "hornresp_mmd"]
+           "hornresp_mmd", "write_vituixcad", "read_vituixcad", "VITUIXCAD_HEADER", "vituixcad_ke"]
+
+#: VituixCAD's driver-database header (module docstring)
+VITUIXCAD_HEADER = ("Manufacturer", "Model", "Type", "Status", "Size [in]", "Re [ohm]", "fs [Hz]", "Qms",
+                    "Qes", "Qts", "Rms [Ns/m]", "Mms [g]", "Cms [mm/N]", "Vas [l]", "Sd [cm2]", "BL [Tm]",
+                    "Pmax [W]", "Xmax [mm]", "Beta", "Z1k [ohm]", "Z10k [ohm]", "Le [mH]", "Leb [mH]",
+                    "Ke [sH]", "Rss [ohm]", "USPL [dB]", "BL\u00b2/Re", "Revision", "Updated")
+#: column -> (T/S name, factor from SI)
+_VX_COLUMNS = {"Re [ohm]": ("Re", 1.0), "fs [Hz]": ("fs", 1.0), "Qms": ("Qms", 1.0), "Qes": ("Qes", 1.0),
+               "Qts": ("Qts", 1.0), "Rms [Ns/m]": ("Rms", 1.0), "Mms [g]": ("Mms", 1e3),
+               "Cms [mm/N]": ("Cms", 1e3), "Vas [l]": ("Vas", 1e3), "BL [Tm]": ("Bl", 1.0),
+               "Le [mH]": ("Le", 1e3)}
+_VX_TEXT = {"Manufacturer", "Model", "Type", "Status", "Revision", "Updated"}
 
 _WDR_KEYS = {"Fs": "fs", "Qms": "Qms", "Qes": "Qes", "Qts": "Qts", "Re": "Re", "Le": "Le", "Vas": "Vas",
              "Mms": "Mms", "Cms": "Cms", "Rms": "Rms", "BL": "Bl"}
@@ -153,6 +182,76 @@ def read_hornresp(path: str | Path) -> dict[str, float]:
     if missing:
         raise DataFormatError(f"{path}: not a Hornresp driver record, missing {missing}")
     return out
+
+
+def vituixcad_ke(K: float, n: float, f_match_hz: float = 1000.0) -> float:
+    """VituixCAD's semi-inductance ``Ke`` [Ω s^½] for Leach's ``K (jω)^n``: ``K`` when ``n = ½``,
+    else ``K (2π f_match)^(n − ½)`` (equal magnitude at ``f_match_hz``; module docstring)."""
+    return float(K * (2 * math.pi * f_match_hz) ** (n - 0.5))
+
+
+def write_vituixcad(path: str | Path, ts, *, manufacturer: str = "bayes_emt", model: str = "driver",
+                    sd: float | None = None, coil: Mapping[str, float] | None = None) -> Path:
+    """A VituixCAD driver-database file (header and one row, module docstring) of a T/S record.
+
+    ``coil`` holds the fitted ``K_semi`` [Ω s^n] and ``n_semi`` of a model with a semi-inductance
+    (from the fit's parameter JSON); without it ``Ke`` is left empty. ``sd`` [m²] if not in the record.
+    """
+    v = _values(ts)
+    sd = sd if sd is not None else (ts.inputs if hasattr(ts, "inputs") else ts.get("inputs", {})).get("sd_m2")
+    for name, text in (("manufacturer", manufacturer), ("model", model)):
+        if "\t" in text or "\n" in text:
+            raise ValueError(f"{name} {text!r} holds a tab or newline, which would break the row")
+    cells = dict.fromkeys(VITUIXCAD_HEADER, "")
+    cells.update({"Manufacturer": manufacturer, "Model": model, "Type": "", "Status": "measured"})
+    for col, (name, factor) in _VX_COLUMNS.items():
+        if name in v:
+            cells[col] = f"{v[name] * factor:.10g}"
+    if sd:
+        cells["Sd [cm2]"] = f"{float(sd) * 1e4:.10g}"
+    if "Bl" in v and "Re" in v:
+        cells["BL\u00b2/Re"] = f"{v['Bl'] ** 2 / v['Re']:.10g}"
+    revision = "bayes_emt"
+    if coil is not None:
+        K, n = float(coil["K_semi"]), float(coil["n_semi"])
+        cells["Ke [sH]"] = f"{vituixcad_ke(K, n):.10g}"
+        if abs(n - 0.5) > 1e-9:
+            revision += f"; Ke matched at 1 kHz from K s^n, n = {n:.4g}"
+    cells["Revision"] = revision
+    lines = ["\t".join(VITUIXCAD_HEADER), "\t".join(cells[c] for c in VITUIXCAD_HEADER)]
+    atomic_write_text(path, "\n".join(lines) + "\n")
+    return Path(path)
+
+
+def read_vituixcad(path: str | Path) -> list[dict]:
+    """The rows of a VituixCAD driver-database file as ``{column: value}`` (numbers as floats, empty
+    cells left out), columns as in its header; a number that does not parse raises, naming the line."""
+    lines = Path(path).read_text(encoding="utf-8-sig").splitlines()
+    if not lines or lines[0].split("\t")[:2] != ["Manufacturer", "Model"]:
+        raise DataFormatError(f"{path}:1: not a VituixCAD driver database "
+                              "(header 'Manufacturer<tab>Model<tab>...')")
+    header = lines[0].split("\t")
+    rows = []
+    for i, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        cells = line.split("\t")
+        if len(cells) > len(header):
+            raise DataFormatError(f"{path}:{i}: {len(cells)} cells for {len(header)} columns")
+        row = {}
+        for col, cell in zip(header, cells, strict=False):
+            cell = cell.strip()
+            if not cell:
+                continue
+            if col in _VX_TEXT:
+                row[col] = cell
+                continue
+            try:
+                row[col] = float(cell.replace(",", "."))
+            except ValueError:
+                raise DataFormatError(f"{path}:{i}: column {col!r} is not a number: {cell!r}") from None
+        rows.append(row)
+    return rows
 
 
 def check_finite(values: Mapping[str, float], where: str) -> None:

@@ -507,7 +507,13 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                       "includes the creep loss at fs (Knudsen & Jensen LOG model, as Klippel LPM and "
                       "Speakerbench report them); zeta and omega0 stay model parameters; "
                       "Qms_viscous is the viscous part alone"})
+    if meas.phase_absent:
+        from ..io.phase import PHASE_ABSENT_NOTE
+
+        warns.append({"code": "phase_absent", "short": "no phase: fitted on log|Z| alone (see the JSON)",
+                      "message": PHASE_ABSENT_NOTE})
     inputs = {"data": meas.source, "f_range_hz": [float(meas.f_hz[0]), float(meas.f_hz[-1])],
+              "phase": "absent" if meas.phase_absent else "measured",
               "exclude_band_hz": [[float(a), float(b)] for a, b in (exclude_band or ())],
               "loaded": [{"data": m.source, "delta_m_kg": d} for m, d in lm],
               "box": None if bx is None else {"data": bx[0].source, "volume_m3": bx[1]},

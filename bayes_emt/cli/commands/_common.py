@@ -116,6 +116,9 @@ def add_data_args(p: argparse.ArgumentParser) -> None:
                    help="phase column unit, when the file does not say")
     p.add_argument("--quantity", choices=["Z", "Y"], default=None,
                    help="whether the file holds impedance Z or admittance Y, when it does not say")
+    p.add_argument("--magnitude-only", action="store_true",
+                   help="drop the recording's phase and fit |Z| alone (a likelihood on log|Z|); "
+                        "magnitude-only exports such as Klippel's are read so without it")
     p.add_argument("--omega-min", type=positive_float, default=None, help="ignore points below (rad/s)")
     p.add_argument("--omega-max", type=positive_float, default=None, help="ignore points above (rad/s)")
 

@@ -51,7 +51,8 @@ def run(args) -> int:
     from ...io.paramfile import write_json
 
     check_outputs([("--json", args.json)], [("BASE", args.base), ("LOADED", args.loaded)])
-    opts = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity}
+    opts = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity,
+            "magnitude_only": args.magnitude_only}
     base = read_measurement(args.base, **opts).select(args.omega_min, args.omega_max)
     loaded = read_measurement(args.loaded, **opts).select(args.omega_min, args.omega_max)
     model = model_from_args(args)

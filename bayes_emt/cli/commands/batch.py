@@ -74,7 +74,8 @@ def run(args) -> int:
 
     jobs = tuple(j.strip() for j in args.jobs.split(",") if j.strip())
     read = tuple((k, v) for k, v in (("freq_unit", args.freq_unit), ("phase_unit", args.phase_unit),
-                                     ("quantity", args.quantity)) if v is not None)
+                                     ("quantity", args.quantity),
+                                     ("magnitude_only", args.magnitude_only or None)) if v is not None)
     settings = BatchSettings(jobs=jobs, model=args.model, rings=args.rings, n_turns=args.n_turns,
                              seed=args.seed, max_steps=args.max_steps, read_options=read,
                              omega_min=args.omega_min, omega_max=args.omega_max)

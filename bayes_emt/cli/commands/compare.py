@@ -87,7 +87,8 @@ def run(args) -> int:
     names = _models(args.models)
     rings = None if args.rings is None else parse_rings(args.rings)
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
-                            quantity=args.quantity).select(args.omega_min, args.omega_max)
+                            quantity=args.quantity,
+                            magnitude_only=args.magnitude_only).select(args.omega_min, args.omega_max)
     if args.json and Path(args.json).resolve() == Path(args.data).resolve():
         raise ValueError(f"{args.json}: the results file must not be the data file")
     note(args, f"comparing {', '.join(names)} on {meas.source} ({meas.n_points} points, "

@@ -110,11 +110,13 @@ def run(args) -> int:
     check_outputs([("--json", args.json)], [("DATA", args.data)] + [("--also", f) for f, _ in also],
                   folders=[("--plot", args.plot, ("residuals.png", "bode.png"))])
     meas = read_measurement(
-        args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit, quantity=args.quantity
+        args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit, quantity=args.quantity,
+        magnitude_only=args.magnitude_only
     ).select(args.omega_min, args.omega_max)
     # the second recordings are read before the diagnosis: a bad file fails at once
     others = [(read_measurement(f, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
-                                quantity=args.quantity).select(args.omega_min, args.omega_max), dm)
+                                quantity=args.quantity, magnitude_only=args.magnitude_only
+                                ).select(args.omega_min, args.omega_max), dm)
               for f, dm in also]
     model = model_from_args(args) if args.model else None
     if args.re is not None:  # a Normal prior on R0: the evidences of the candidates see the reading

@@ -1,10 +1,12 @@
 """``bayes-emt export SOURCE [--zma OUT] [--frd OUT] [--data FILE | --grid FMIN:FMAX:N] [--wdr OUT]
-[--hornresp OUT]``: the fitted impedance as ZMA/FRD, T/S parameters as driver files.
+[--hornresp OUT] [--vituixcad OUT [--fit FIT_JSON]]``: the fitted impedance as ZMA/FRD, T/S
+parameters as driver files.
 
 SOURCE is a fit or parameter JSON (``bayes-emt fit --json``; the curve is the model's impedance
 on the grid of ``--data`` or on ``--grid``, log-spaced, Hz) or a T/S JSON (``bayes-emt ts
---json``; driver files for WinISD ``--wdr`` and Hornresp ``--hornresp``). Formats and their
-sources: :mod:`bayes_emt.io.export`.
+--json``; driver files for WinISD ``--wdr``, Hornresp ``--hornresp`` and a VituixCAD driver-database
+line ``--vituixcad``, whose semi-inductance Ke comes from ``--fit``, the fit JSON of a model with a
+semi_inductance term). Formats and their sources: :mod:`bayes_emt.io.export`.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ EXAMPLES = """\
 bayes-emt export ud_fit.json --data speaker.zma --zma ud_fitted.zma
 bayes-emt export ud_fit.json --grid 10:20000:500 --frd ud_fitted.frd
 bayes-emt export ts.json --wdr driver.wdr --hornresp driver_hornresp.txt
+bayes-emt export ts.json --vituixcad VituixCAD_driver.txt --fit semi_fit.json --name "SEAS E0018"
 """
 
 
@@ -32,6 +35,11 @@ def register(sub) -> None:
     p.add_argument("--grid", default=None, metavar="FMIN:FMAX:N", help="log grid in Hz, e.g. 10:20000:500")
     p.add_argument("--wdr", default=None, metavar="OUT", help="WinISD driver file (from a T/S JSON)")
     p.add_argument("--hornresp", default=None, metavar="OUT", help="Hornresp driver record (from a T/S JSON)")
+    p.add_argument("--vituixcad", default=None, metavar="OUT",
+                   help="VituixCAD driver-database file, header and one row (from a T/S JSON)")
+    p.add_argument("--fit", default=None, metavar="FIT_JSON",
+                   help="fit JSON of a model with a semi_inductance term: gives VituixCAD's Ke")
+    p.add_argument("--name", default="driver", help="the driver's model name in the VituixCAD row")
     p.add_argument("--sd", type=float, default=None, metavar="M2", help="Sd [m^2] if the T/S JSON lacks it")
     add_output_args(p)
     p.set_defaults(func=run)
@@ -39,12 +47,21 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ...errors import DataFormatError
-    from ...io.export import fitted_impedance, grid_hz, write_frd, write_hornresp, write_wdr, write_zma
+    from ...io.export import (
+        fitted_impedance,
+        grid_hz,
+        write_frd,
+        write_hornresp,
+        write_vituixcad,
+        write_wdr,
+        write_zma,
+    )
 
-    outs = [("--zma", args.zma), ("--frd", args.frd), ("--wdr", args.wdr), ("--hornresp", args.hornresp)]
+    outs = [("--zma", args.zma), ("--frd", args.frd), ("--wdr", args.wdr), ("--hornresp", args.hornresp),
+            ("--vituixcad", args.vituixcad)]
     if not any(o for _, o in outs):
-        raise ValueError("nothing to write: give --zma, --frd, --wdr or --hornresp")
-    check_outputs(outs, [("SOURCE", args.source), ("--data", args.data)])
+        raise ValueError("nothing to write: give --zma, --frd, --wdr, --hornresp or --vituixcad")
+    check_outputs(outs, [("SOURCE", args.source), ("--data", args.data), ("--fit", args.fit)])
     try:
         rec = json.loads(Path(args.source).read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:
@@ -52,9 +69,9 @@ def run(args) -> int:
     is_ts = isinstance(rec, dict) and rec.get("method") in ("free_air", "added_mass", "added_volume")
     if (args.zma or args.frd) and is_ts:
         raise ValueError(f"{args.source} is a T/S record: --zma/--frd need a fit or parameter JSON")
-    if (args.wdr or args.hornresp) and not is_ts:
+    if (args.wdr or args.hornresp or args.vituixcad) and not is_ts:
         raise ValueError(f"{args.source} is not a T/S record (bayes-emt ts --json): "
-                         "--wdr/--hornresp need one")
+                         "--wdr/--hornresp/--vituixcad need one")
     if args.zma or args.frd:
         from ...io import read_measurement
         from ...io.paramfile import read_param_file
@@ -75,4 +92,16 @@ def run(args) -> int:
     if args.hornresp:
         write_hornresp(args.hornresp, rec, sd=args.sd)
         note(args, f"wrote {args.hornresp}")
+    if args.vituixcad:
+        coil = None
+        if args.fit:
+            from ...io.paramfile import read_param_file
+
+            fmodel, ftheta = read_param_file(args.fit)
+            if "K_semi" not in fmodel.names:
+                raise ValueError(f"--fit {args.fit}: model {fmodel.spec} has no semi_inductance term, so no "
+                                 "Ke; fit a model such as UD+semi_inductance, or drop --fit")
+            coil = {k: float(ftheta[fmodel.names.index(k)]) for k in ("K_semi", "n_semi")}
+        write_vituixcad(args.vituixcad, rec, model=args.name, sd=args.sd, coil=coil)
+        note(args, f"wrote {args.vituixcad}" + ("" if coil else " (no --fit: Ke left empty)"))
     return 0

@@ -70,7 +70,8 @@ def run(args) -> int:
 
     check_outputs([("--json", args.json)], [("DATA", args.data), ("--priors", args.priors)])
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
-                            quantity=args.quantity).select(args.omega_min, args.omega_max)
+                            quantity=args.quantity,
+                            magnitude_only=args.magnitude_only).select(args.omega_min, args.omega_max)
     meas = meas.exclude_bands(args.exclude_band)
     model = model_from_args(args)
     re_reading = meter_of(args)
@@ -120,6 +121,6 @@ def run(args) -> int:
         print(thiele_small(meas, model, re=re_reading, fast=True, models_for_spread=[]).summary())
     if args.json:
         write_json(args.json, {"kind": fit.kind, **fit.to_json_dict(), "procedure": args.procedure,
-                               "R0_by_procedure": r0})
+                               "R0_by_procedure": r0, "phase": "absent" if meas.phase_absent else "measured"})
         note(args, f"wrote {args.json}")
     return 0

@@ -46,7 +46,8 @@ def run(args) -> int:
 
     check_outputs([("--json", args.json)], [("DATA", args.data)])
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
-                            quantity=args.quantity).select(args.omega_min, args.omega_max)
+                            quantity=args.quantity,
+                            magnitude_only=args.magnitude_only).select(args.omega_min, args.omega_max)
     rc = select_rings(meas, args.max_rings, n_turns=args.n_turns)
     detail(args, f"NL({args.max_rings}) fit: " + ", ".join(
         f"{k} = {v:.4g}" for k, v in rc.fit.parameters.items()))

@@ -32,7 +32,8 @@ def run(args) -> int:
     from ...io import read_measurement
 
     meas = read_measurement(args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit,
-                            quantity=args.quantity).select(args.omega_min, args.omega_max)
+                            quantity=args.quantity,
+                            magnitude_only=args.magnitude_only).select(args.omega_min, args.omega_max)
     m = meas.meta
     rep = {"magphase": "magnitude and phase", "reim": "real and imaginary parts",
            "dbphase": "dB and phase"}.get(m.get("representation"), m.get("representation"))
@@ -55,4 +56,24 @@ def run(args) -> int:
     else:
         print(f"resonance   {res.omega / (2 * math.pi):.5g} Hz ({res.omega:.5g} rad/s), "
               f"|Z| = {absz[res.index]:.5g} ohm")
+    if meas.phase_absent:
+        print("phase       absent: |Z| only, fitted on log|Z| "
+              "(the phase shown by plots is a minimum-phase estimate)")
+    bench = m.get("bench_fit")
+    if bench:
+        print(f"bench fit   {_bench_line(bench)}")
     return 0
+
+
+def _bench_line(bench: dict) -> str:
+    """The bench's own fit in display units: ``DATS: fs 25.07 Hz, Re 4.2 Ω, ...``."""
+    from ...thiele_small.relations import DISPLAY
+
+    parts = []
+    for name, value in bench.get("values", {}).items():
+        unit, factor = DISPLAY.get(name, ("", 1.0))
+        parts.append(f"{name} {value * factor:.4g}{' ' + unit if unit else ''}")
+    curve = bench.get("curve")
+    if curve and curve.get("f_hz"):
+        parts.append(f"fitted |Z| curve of {len(curve['f_hz'])} points")
+    return f"{bench.get('bench')}: " + (", ".join(parts) or "no values")

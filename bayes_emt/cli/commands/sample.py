@@ -123,7 +123,8 @@ def run(args) -> int:
                   [("DATA", args.data), ("--loaded", args.loaded), ("--priors", args.priors)],
                   folders=[("--plot", args.plot, [f"posterior_{stem}_{n}.png" for n in plots])])
     check_checkpoint(ckpt, resume=args.resume, overwrite=args.overwrite)
-    opts = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity}
+    opts = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity,
+            "magnitude_only": args.magnitude_only}
     meas = read_measurement(args.data, **opts).select(args.omega_min, args.omega_max)
     meas = meas.exclude_bands(args.exclude_band)
     loaded = None if args.loaded is None else read_measurement(args.loaded, **opts).select(args.omega_min,

@@ -94,7 +94,7 @@ def run(args) -> int:
                      fast=args.fast, seed=args.seed, models_for_spread=spread, f_range_hz=f_range,
                      exclude_band=args.exclude_band,
                      read_options={"freq_unit": args.freq_unit, "phase_unit": args.phase_unit,
-                                   "quantity": args.quantity})
+                                   "quantity": args.quantity, "magnitude_only": args.magnitude_only})
     table = r.summary().splitlines()
     print("\n".join(ln for ln in table if not ln.startswith("warning [")))
     print_warning_lines(r.warnings)
