@@ -396,6 +396,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
     loaded : ``[(recording, delta_m_kg), ...]``: added-mass recordings (method ``added_mass``).
     box : ``(recording, volume_m3)``: a sealed test box of known net volume (``added_volume``).
     sd : effective cone area Sd [m²] (Vas, η0, SPL; needed by ``added_volume`` for Cms, Mms, Bl).
+        Every quantity here (masses, volume, Sd, mms, bl, air) may instead be a string with a unit,
+        ``"85cm2"``, ``"8.017g"``, ``"20L"`` (:mod:`bayes_emt.units`); a bare number is SI.
     re : ohmmeter reading of the DC resistance: ohms (1 % sd), ``(ohms, sd)`` or ``(ohms, sd, mode)``
         with mode ``"cut"`` (default) or ``"prior"`` (:mod:`bayes_emt.estimation.meter`).
     mms, bl : a known moving mass [kg] or force factor [T m] (free air only; not both).
@@ -414,7 +416,17 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
     -------
     ThieleSmall
     """
-    loaded = list(loaded)
+    from ..units import as_si
+
+    # quantities may carry a unit ("85cm2", "8.017g", "20L"); a bare number is SI
+    sd, mms = as_si(sd, "area", "sd"), as_si(mms, "mass", "mms")
+    bl = as_si(bl, "force_factor", "bl")
+    air_density = as_si(air_density, "density", "air_density")
+    sound_speed = as_si(sound_speed, "speed", "sound_speed")
+    loaded = [(item[0], as_si(item[1], "mass", f"loaded[{i}] delta_m"))
+              if isinstance(item, tuple | list) and len(item) == 2 else item for i, item in enumerate(loaded)]
+    if box is not None and isinstance(box, tuple | list) and len(box) == 2:
+        box = (box[0], as_si(box[1], "volume", "box volume"))
     if mms is not None and bl is not None:
         raise ValueError("give a known mms or a known bl, not both")
     if loaded and box is not None:

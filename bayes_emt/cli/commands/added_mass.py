@@ -16,11 +16,11 @@ from ._common import (
     add_parser,
     add_re_option,
     detail,
-    finite_float,
     meter_of,
     model_from_args,
     note,
     print_table,
+    quantity,
 )
 
 EXAMPLES = """\
@@ -35,8 +35,8 @@ def register(sub) -> None:
                    description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
     p.add_argument("base", help="recording without the added mass")
     p.add_argument("loaded", help="recording with the added mass")
-    p.add_argument("--delta-m", type=finite_float, required=True,
-                   help="mass added in LOADED [kg] (negative: removed)")
+    p.add_argument("--delta-m", type=quantity("mass", sign="nonzero"), required=True, metavar="MASS",
+                   help="mass added in LOADED: kg, or with a unit (100g); negative: removed")
     add_model_args(p)
     add_data_args(p)
     add_re_option(p)
@@ -81,4 +81,6 @@ def run(args) -> int:
     if args.json:
         write_json(args.json, r.to_json_dict())
         note(args, f"wrote {args.json}")
-    return 0
+    from ..exitcodes import status
+
+    return status(not getattr(r, "success", True))

@@ -120,4 +120,8 @@ def run(args) -> int:
         folder.mkdir(parents=True, exist_ok=True)
         path = save_figure(plot_evidence(cmp), folder / "evidence.png")
         note(args, f"wrote {path}")
-    return 1 if cmp.all_warnings() else 0
+    from ..exitcodes import status
+
+    # 1: a model's evidence is not to be trusted (its chain missed the stopping rule, or it failed);
+    # warnings alone leave a delivered result (0)
+    return status(any(not m.converged or not (m.log_evidence == m.log_evidence) for m in cmp.models))

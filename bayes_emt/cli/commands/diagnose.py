@@ -8,7 +8,8 @@ Prints each finding in plain words (band in Hz, Δ log Z in nats, the band's χ�
 parameters that moved) and what stays unexplained; ``--json`` writes the issue-13 record
 (``final_model`` is a spec that fit, sample, added-mass and shunt accept), ``--plot`` the
 residuals before/after with the bands shaded and a Bode overlay.
-Exit status 0, or 1 when the result carries warnings, 2 on a user error.
+Exit status 0 with or without findings and warnings; 1 when the time budget cut the search short or
+the final fit failed; 2 on a user error.
 """
 
 from __future__ import annotations
@@ -38,13 +39,15 @@ bayes-emt diagnose freeair.txt --also added100g.txt:0.100  (check the findings o
 
 
 def also_arg(text: str) -> tuple[str, float | None]:
-    """``FILE[:DELTA_M_KG]`` of ``--also``: the file and the mass added for it [kg] (``None``: the same
-    driver, another drive level or session)."""
+    """``FILE[:DELTA_M]`` of ``--also``: the file and the mass added for it [kg; a unit may be given,
+    ``:100g``] (``None``: the same driver, another drive level or session)."""
+    from ...units import UnitError, parse_quantity
+
     head, sep, tail = text.rpartition(":")
     if sep and head:
         try:
-            dm = float(tail)
-        except ValueError:
+            dm = parse_quantity(tail, "mass")  # kg, or with a unit: added100g.txt:100g
+        except UnitError:
             return text, None
         if not (dm == dm and abs(dm) != float("inf") and dm != 0):
             raise ValueError(f"--also {text}: the added mass after ':' must be a non-zero number of kg")
@@ -186,4 +189,9 @@ def run(args) -> int:
             ("bode.png", plot_bode_overlay(d, meas)),
         ):
             print(f"wrote {save_figure(fig, folder / name)}")
-    return 1 if d.warnings else 0
+    # exit 1 only when the result is not to be trusted (a budget cut, a final fit that failed);
+    # findings and warnings alone are a delivered result (exit 0)
+    from ..exitcodes import status
+
+    rms = d.final_fit.rms_rel_residual
+    return status(d.budget_hit or not d.final_fit.success or not (rms == rms and rms != float("inf")))

@@ -122,4 +122,6 @@ def run(args) -> int:
         write_json(args.json, {"kind": fit.kind, **fit.to_json_dict(), "procedure": args.procedure,
                                "R0_by_procedure": r0})
         note(args, f"wrote {args.json}")
-    return 0
+    from ..exitcodes import status
+
+    return status(not fit.success)

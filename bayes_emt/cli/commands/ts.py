@@ -21,17 +21,17 @@ from ._common import (
     add_re_option,
     meter_of,
     note,
-    positive_float,
     print_warning_lines,
+    quantity,
     seed,
 )
 
 EXAMPLES = """\
 bayes-emt ts free_air.zma --model UD
-bayes-emt ts free.txt --loaded with10g.txt --delta-m 0.010 --loaded with20g.txt --delta-m 0.020 --sd 0.0330
-bayes-emt ts free.zma --box in_box.zma --box-volume 0.020 --sd 0.0330 --re 5.72
+bayes-emt ts free.txt --loaded with10g.txt --delta-m 10g --loaded with20g.txt --delta-m 20g --sd 330cm2
+bayes-emt ts free.zma --box in_box.zma --box-volume 20L --sd 0.0330 --re 5.72ohm
 bayes-emt ts free.zma --model UD+suspension_creep --mms 0.0149 --sd 0.033 --fast --json ts.json
-bayes-emt ts free.zma --exclude-band 5200:5600 --fast
+bayes-emt ts free.zma --exclude-band 5.2kHz:5.6kHz --fast
 """
 
 
@@ -42,19 +42,21 @@ def register(sub) -> None:
     p.add_argument("--model", default="UD", metavar="SPEC", help="model spec (default UD)")
     p.add_argument("--loaded", action="append", default=[], metavar="FILE",
                    help="a recording with an added mass (repeat; each needs its --delta-m, in order)")
-    p.add_argument("--delta-m", action="append", type=float, default=[], metavar="KG",
-                   help="mass added for the matching --loaded [kg]")
+    p.add_argument("--delta-m", action="append", type=quantity("mass", sign="nonzero"), default=[],
+                   metavar="MASS", help="mass added for the matching --loaded: kg, or with a unit (8.017g)")
     p.add_argument("--box", default=None, metavar="FILE", help="a recording in a sealed test box")
-    p.add_argument("--box-volume", type=positive_float, default=None, metavar="M3",
-                   help="the test box's net volume [m^3]")
-    p.add_argument("--sd", type=positive_float, default=None, metavar="M2",
-                   help="effective cone area Sd [m^2]")
+    p.add_argument("--box-volume", type=quantity("volume"), default=None, metavar="VOLUME",
+                   help="the test box's net volume: m^3, or with a unit (20L, 0.7ft3)")
+    p.add_argument("--sd", type=quantity("area"), default=None, metavar="AREA",
+                   help="effective cone area Sd: m^2, or with a unit (85cm2)")
     add_re_option(p)
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--mms", type=positive_float, default=None, metavar="KG", help="known moving mass [kg]")
-    g.add_argument("--bl", type=positive_float, default=None, metavar="TM", help="known force factor [T m]")
-    p.add_argument("--air-density", type=positive_float, default=1.18, help="kg/m^3 (default 1.18)")
-    p.add_argument("--sound-speed", type=positive_float, default=343.0, help="m/s (default 343)")
+    g.add_argument("--mms", type=quantity("mass"), default=None, metavar="MASS",
+                   help="known moving mass: kg, or with a unit (14.9g)")
+    g.add_argument("--bl", type=quantity("force_factor"), default=None, metavar="BL",
+                   help="known force factor [T m]")
+    p.add_argument("--air-density", type=quantity("density"), default=1.18, help="kg/m^3 (default 1.18)")
+    p.add_argument("--sound-speed", type=quantity("speed"), default=343.0, help="m/s (default 343)")
     p.add_argument("--spread-models", default=None, metavar="SPECS",
                    help="comma-separated candidate models for the model spread (default II,III,UD with the "
                         "model's physics terms; 'none' for none)")
@@ -107,4 +109,6 @@ def run(args) -> int:
     if args.json:
         r.save(args.json)
         note(args, f"wrote {args.json}")
-    return 0
+    from ..exitcodes import status
+
+    return status(any(w.get("code") == "not_converged" for w in r.warnings))
