@@ -72,6 +72,7 @@ from ..errors import DataFormatError
 from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
+from .plausibility import check_inputs, check_result, vented_signature
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
@@ -116,6 +117,13 @@ def _measurement(x, where: str, read_options: dict | None, f_range_hz, exclude_b
         lo, hi = f_range_hz
         meas = meas.select(None if lo is None else 2 * math.pi * lo, None if hi is None else 2 * math.pi * hi)
     return meas.exclude_bands(exclude_band)
+
+
+def _volume_of(box) -> float | None:
+    try:
+        return float(box[1])
+    except (TypeError, ValueError, IndexError):
+        return None  # the shape is refused below, with its own message
 
 
 def _model(model) -> Model:
@@ -439,6 +447,9 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"{name} must be a positive number, got {v!r}")
     re_t = as_meter(re)
     main = _model(model)
+    check_inputs(sd=sd, mms=mms, box_volume=None if box is None else _volume_of(box),
+                 deltas=[float(it[1]) for it in loaded
+                         if isinstance(it, tuple | list) and len(it) == 2 and isinstance(it[1], int | float)])
     meas = _measurement(data, "data", read_options, f_range_hz, exclude_band)
     lm = []
     for i, item in enumerate(loaded):
@@ -507,6 +518,14 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
         params[name] = {"value": float(med), "ci90": [float(lo), float(hi)], "unit": UNITS[name],
                         "model_spread": [min(vals), max(vals)] if len(vals) > 1 or (vals and not main_in)
                         else None}
+    warns += check_result(params, method=method, sd=sd, mms=mms, bl=bl, deltas=[d for _, d in lm])
+    vented = vented_signature(meas)
+    if vented is not None:
+        warns.append({"code": "vented_curve", "short": "the curve has a vented box's two peaks, not free "
+                      "air's one: these are not free-air T/S values",
+                      "message": f"{meas.source}: {vented}: a vented box's signature, not a free-air "
+                                 "driver's; the T/S method assumes DATA is the driver in free air (for a "
+                                 "box, diagnose --setup vented reads the port's tuning fb)"})
     if fast:
         warns.append({"code": "fast_intervals", "short": "intervals from the fit's covariance (--fast), not "
                       "the posterior", "message": "intervals from the least-squares fit's Gaussian "
