@@ -447,7 +447,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"{name} must be a positive number, got {v!r}")
     re_t = as_meter(re)
     main = _model(model)
-    check_inputs(sd=sd, mms=mms, box_volume=None if box is None else _volume_of(box),
+    check_inputs(sd=sd, mms=mms, bl=bl, box_volume=None if box is None else _volume_of(box),
                  deltas=[float(it[1]) for it in loaded
                          if isinstance(it, tuple | list) and len(it) == 2 and isinstance(it[1], int | float)])
     meas = _measurement(data, "data", read_options, f_range_hz, exclude_band)

@@ -52,6 +52,7 @@ BL_WARN = (0.3, 60.0)
 MMS_WARN_KG = (0.05e-3, 1.0)
 AREAL_DENSITY_WARN = (0.05, 30.0)  # kg/m^2
 MIN_MASS_RATIO = 0.1
+_BARE = "bare numbers are SI: kg, m^2, m^3; write 8.017g, 85cm2, 20L"
 
 
 class ImplausibleInput(BayesEMTError, ValueError):
@@ -62,7 +63,7 @@ def _name(key: str) -> str:
     return f"{key} ({OPTION[key]})" if key in OPTION else key
 
 
-def check_inputs(*, sd=None, mms=None, deltas=(), box_volume=None) -> None:
+def check_inputs(*, sd=None, mms=None, bl=None, deltas=(), box_volume=None) -> None:
     """Refuse inputs beyond any transducer's range before any fit (module docstring's table)."""
     for i, dm in enumerate(deltas):
         if abs(dm) > MAX_MASS_KG:
@@ -73,6 +74,9 @@ def check_inputs(*, sd=None, mms=None, deltas=(), box_volume=None) -> None:
     if mms is not None and mms > MAX_MASS_KG:
         raise ImplausibleInput(f"{_name('mms')} = {mms:g} kg is heavier than any cone (21-inch woofers: "
                                f"about 0.5 kg); did you mean {mms:g}g?")
+    if bl is not None and bl > MAX_BL_TM:
+        raise ImplausibleInput(f"{_name('bl')} = {bl:g} T m is beyond any motor (the strongest are about "
+                               "40 T m)")
     if sd is not None and sd > MAX_SD_M2:
         hint = f"{sd:g}cm2" if sd * 1e-4 <= MAX_SD_M2 else f"{sd:g}mm2"
         raise ImplausibleInput(f"{_name('sd')} = {sd:g} m^2 is larger than any cone (a 21-inch driver's "
@@ -100,12 +104,12 @@ def check_result(params: dict, *, method: str, sd=None, mms=None, bl=None, delta
         raise ImplausibleInput(
             f"eta0 = {100 * eta:.3g} % is impossible (above 100 %): check {_name('sd')} (m^2 unless a unit "
             f"is given, e.g. 85cm2) and {culprit}")
-    if m is not None and m > MAX_MASS_KG:
-        raise ImplausibleInput(f"Mms = {m:.4g} kg from {culprit} is heavier than any cone: check its unit "
-                               "(a bare number is kg/m^2/m^3; e.g. 8.017g, 85cm2, 20L)")
     if b is not None and b > MAX_BL_TM:
         raise ImplausibleInput(f"Bl = {b:.4g} T m from {culprit} is beyond any motor (about 40 T m at most): "
-                               "check its unit (a bare number is SI; e.g. 8.017g, 85cm2, 20L)")
+                               f"check its unit ({_BARE})")
+    if m is not None and m > MAX_MASS_KG:
+        raise ImplausibleInput(f"Mms = {m:.4g} kg from {culprit} is heavier than any cone: check its unit "
+                               f"({_BARE})")
     if m is not None and not MMS_WARN_KG[0] <= m <= MMS_WARN_KG[1]:
         out.append({"code": "implausible_mms", "short": f"Mms = {1e3 * m:.4g} g is outside the usual "
                     f"{1e3 * MMS_WARN_KG[0]:g} g .. {MMS_WARN_KG[1]:g} kg: check {culprit}",
