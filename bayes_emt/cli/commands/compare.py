@@ -122,6 +122,11 @@ def run(args) -> int:
         note(args, f"wrote {path}")
     from ..exitcodes import status
 
-    # 1: a model's evidence is not to be trusted (its chain missed the stopping rule, or it failed);
+    # 1: a model's evidence is not to be trusted (its chain missed the stopping rule, or every
+    # estimator failed);
     # warnings alone leave a delivered result (0)
-    return status(any(not m.converged or not (m.log_evidence == m.log_evidence) for m in cmp.models))
+    def untrusted(m) -> bool:
+        estimates = [v.get("log_evidence") for v in m.by_method.values()]
+        return not m.converged or not any(isinstance(x, int | float) and x == x for x in estimates)
+
+    return status(any(untrusted(m) for m in cmp.models))
