@@ -78,8 +78,8 @@ def test_ts(files, capsys, monkeypatch):
     from bayes_emt.inference.sampling import SamplerSettings
     from bayes_emt.thiele_small import compute
 
-    monkeypatch.setattr(compute, "_ts_sampler", lambda: SamplerSettings(max_steps=60, ess_target=400.0,
-                                                                        min_tau_multiple=25.0, max_draws=2000))
+    short = SamplerSettings(max_steps=60, ess_target=400.0, min_tau_multiple=25.0, max_draws=2000)
+    monkeypatch.setattr(compute, "_ts_sampler", lambda: short)
     rc, text = _rc(["ts", files["rec"], "--model", "I", "--spread-models", "none"], capsys)
     assert rc == 1 and "not_converged" in text
 
@@ -108,8 +108,8 @@ def test_compare(files, capsys):
     d = files["dir"]
     assert _rc(["compare", files["rec"], "--models", "I", "--methods", "laplace", "--quiet",
                 "--work", str(d / "c0")], capsys)[0] == 0
-    rc, text = _rc(["compare", files["rec"], "--models", "I", "--methods", "laplace,bridge", "--max-steps", "60",
-                    "--quiet", "--work", str(d / "c1")], capsys)
+    rc, text = _rc(["compare", files["rec"], "--models", "I", "--methods", "laplace,bridge",
+                    "--max-steps", "60", "--quiet", "--work", str(d / "c1")], capsys)
     assert rc == 1, text
     assert _rc(["compare", files["rec"], "--models", "I,XYZ"], capsys)[0] == 2
 

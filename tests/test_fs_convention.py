@@ -43,7 +43,8 @@ def test_derived_is_vectorised_over_chains_and_draws():
 
 def test_without_creep_fs_is_omega0_over_two_pi():
     model = parse_model_spec("I")
-    th = np.array([{"zeta": 0.1, "omega0": 300.0, "phi": 50.0, "R0": 6.0, "L0": 1e-3}[n] for n in model.names])
+    v = {"zeta": 0.1, "omega0": 300.0, "phi": 50.0, "R0": 6.0, "L0": 1e-3}
+    th = np.array([v[n] for n in model.names])
     d = derived_values(model, th)
     assert d["fs"] == pytest.approx(300.0 / (2 * math.pi), rel=1e-12)
     assert d["Qms"] == pytest.approx(5.0, rel=1e-12)
