@@ -72,6 +72,7 @@ from ..errors import DataFormatError
 from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
+from .curve import fit_curve
 from .plausibility import check_inputs, check_result, vented_signature
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
@@ -152,6 +153,7 @@ class _Inputs:
     seed: int
     settings: object
     evidence: bool = True  # compute each model's Laplace evidence (only needed for the model spread)
+    curve: dict | None = None  # the main model's fitted free-air curve (curve.fit_curve)
 
 
 def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
@@ -291,6 +293,8 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                               "message": f"the {label} posterior did not meet the stopping rule: "
                                          f"{post.message}"})
             theta = post.theta()
+        if mode != "point" and label == "free air":
+            inp.curve = fit_curve(fit.model, theta, meas, fit.rms_rel_residual, inp.seed)
         rec = {"rms": fit.rms_rel_residual,
                "undetermined": undetermined(fit.model.params, fit.theta, fit.cov_z),
                "log_z": _single_evidence(meas, fit, prior_model) if inp.evidence else float("nan")}
@@ -333,6 +337,8 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                               "short": "the joint posterior did not meet the stopping rule",
                               "message": "the joint posterior did not meet the stopping rule: "
                                          f"{info['message']}"})
+        if mode != "point":
+            inp.curve = fit_curve(model, jm.thetas(x)[0], inp.meas, float(mfit.rms_rel_residual[0]), inp.seed)
         out = []
         for xx in (x, mfit.theta[None, :]):
             theta = jm.thetas(xx)[0]
@@ -558,7 +564,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                               "values": _point_values(points[r["model"]])}
                              for r in records]}}
     return ThieleSmall(model=main.spec, method=method, parameters=params, inputs=inputs,
-                       warnings=tuple(_dedupe(warns)))
+                       warnings=tuple(_dedupe(warns)), curve=inp.curve)
 
 
 def _point_values(ts: dict) -> dict:

@@ -26,12 +26,15 @@ from ._common import (
     seed,
 )
 
+#: the figure ``--plot DIR`` writes (a name no other command uses: figures never overwrite each other)
+PLOT_NAME = "ts_fit.png"
+
 EXAMPLES = """\
 bayes-emt ts free_air.zma --model UD
 bayes-emt ts free.txt --loaded with10g.txt --delta-m 10g --loaded with20g.txt --delta-m 20g --sd 330cm2
 bayes-emt ts free.zma --box in_box.zma --box-volume 20L --sd 0.0330 --re 5.72ohm
 bayes-emt ts free.zma --model UD+suspension_creep --mms 0.0149 --sd 0.033 --fast --json ts.json
-bayes-emt ts free.zma --exclude-band 5.2kHz:5.6kHz --fast
+bayes-emt ts free.zma --exclude-band 5.2kHz:5.6kHz --fast --plot figures/
 """
 
 
@@ -66,6 +69,9 @@ def register(sub) -> None:
     add_data_args(p)
     add_exclude_band_arg(p)
     p.add_argument("--json", default=None, help="write the result as JSON here")
+    p.add_argument("--plot", default=None, metavar="DIR",
+                   help=f"write {PLOT_NAME} here: |Z| and phase with the fitted curve, its 90 %% posterior "
+                        "predictive band and the file's own fit (if it has one), and the residual")
     add_output_args(p)
     p.set_defaults(func=run)
 
@@ -81,7 +87,7 @@ def run(args) -> int:
     inputs = [("DATA", args.data)] + [("--loaded", f) for f in args.loaded]
     if args.box:
         inputs.append(("--box", args.box))
-    check_outputs([("--json", args.json)], inputs)
+    check_outputs([("--json", args.json)], inputs, folders=[("--plot", args.plot, (PLOT_NAME,))])
     spread = None
     if args.spread_models is not None:
         spread = [] if args.spread_models.strip().lower() == "none" else \
@@ -109,6 +115,14 @@ def run(args) -> int:
     if args.json:
         r.save(args.json)
         note(args, f"wrote {args.json}")
+    if args.plot:
+        from pathlib import Path
+
+        from ...plotting import save_figure
+        from ...plotting.thiele_small import plot_ts_fit
+
+        Path(args.plot).mkdir(parents=True, exist_ok=True)
+        note(args, f"wrote {save_figure(plot_ts_fit(r), Path(args.plot) / PLOT_NAME, dpi=110)}")
     from ..exitcodes import status
 
     return status(any(w.get("code") == "not_converged" for w in r.warnings))
