@@ -20,7 +20,13 @@ def redraw_posterior_figures(run_dir: str | Path) -> list[str]:
     """
     root = Path(run_dir)
     nc = root / L.POSTERIOR_NC
-    want = [n for n in (L.POSTERIOR_BODE, L.POSTERIOR_CORNER) if not (root / n).is_file()]
+    if not nc.is_file():  # sample --out under another name: the folder's one netCDF file
+        found = sorted(root.glob("*.nc"))
+        nc = found[0] if len(found) == 1 else nc
+    # a figure sample --plot already drew (posterior_<model>_bode.png) is used as it is
+    drawn = {L.POSTERIOR_BODE: "posterior_*_bode.png", L.POSTERIOR_CORNER: "posterior_*_corner.png"}
+    want = [n for n, pat in drawn.items() if not (root / n).is_file() and not any(root.glob(pat))
+            and not any(root.glob(f"*/{pat}"))]
     if not nc.is_file() or not want:
         return []
     from ..api import read_posterior

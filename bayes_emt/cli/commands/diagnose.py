@@ -28,6 +28,9 @@ from ._common import (
     seed,
 )
 
+#: the figures of --plot DIR (named apart from the report's own residuals.png: nothing is overwritten)
+PLOT_NAMES = ("diagnosis_residuals.png", "diagnosis_bode.png")
+
 EXAMPLES = """\
 bayes-emt diagnose speaker.zma  (start from the model the evidence prefers)
 bayes-emt diagnose speaker.zma --model UD --json diagnosis.json --plot figures/
@@ -106,7 +109,7 @@ def run(args) -> int:
 
     also = [also_arg(a) for a in args.also]
     check_outputs([("--json", args.json)], [("DATA", args.data)] + [("--also", f) for f, _ in also],
-                  folders=[("--plot", args.plot, ("residuals.png", "bode.png"))])
+                  folders=[("--plot", args.plot, PLOT_NAMES)])
     meas = read_measurement(
         args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit, quantity=args.quantity
     ).select(args.omega_min, args.omega_max)
@@ -185,8 +188,8 @@ def run(args) -> int:
         folder = Path(args.plot)
         folder.mkdir(parents=True, exist_ok=True)
         for name, fig in (
-            ("residuals.png", plot_residuals(d, meas)),
-            ("bode.png", plot_bode_overlay(d, meas)),
+            (PLOT_NAMES[0], plot_residuals(d, meas)),
+            (PLOT_NAMES[1], plot_bode_overlay(d, meas)),
         ):
             print(f"wrote {save_figure(fig, folder / name)}")
     # exit 1 only when the result is not to be trusted (a budget cut, a final fit that failed);

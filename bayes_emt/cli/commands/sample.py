@@ -234,7 +234,8 @@ def _outputs(args, post, warns, out, ckpt, stem, plots) -> int:
     post.save(out)
     note(args, f"wrote {out} (ArviZ DataTree; checkpoint {ckpt})")
     if args.json:
-        write_json(args.json, {**post.to_json_dict(), "warnings": warns})
+        # the kind lets a report find it whatever its name
+        write_json(args.json, {"kind": "posterior_summary", **post.to_json_dict(), "warnings": warns})
         note(args, f"wrote {args.json}")
     if args.plot:
         from ...plotting import save_figure
