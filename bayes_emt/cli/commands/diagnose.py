@@ -70,8 +70,9 @@ def register(sub) -> None:
                    help="how the transducer was mounted (default unknown): free-air, sealed and shaker rule "
                         "out a port; unknown tries a port only when |Z| has two maxima with a minimum "
                         "between them (each maximum >= 10 %% above it, within a factor 10 in frequency)")
-    p.add_argument("--also", action="append", default=[], metavar="FILE[:DELTA_M_KG]",
-                   help="a second recording of the same transducer (with the mass added for it, kg): every "
+    p.add_argument("--also", action="append", default=[], metavar="FILE[:MASS]",
+                   help="a second recording of the same transducer (with the mass added for it: kg, or "
+                        "with a unit, FILE:100g): every "
                         "finding is refitted on it with and without the term; one it does not need "
                         "(delta log Z < 5 nats) is flagged; with a mass the joint added-mass fit is run "
                         "with the start and the final model; the recording is diagnosed too, and a term "
@@ -81,7 +82,8 @@ def register(sub) -> None:
                    help="do not diagnose the --also recordings (only check this diagnosis's findings "
                         "on them)")
     p.add_argument("--json", default=None, metavar="OUT", help="write the diagnosis as JSON here")
-    p.add_argument("--plot", default=None, metavar="DIR", help="write residual and Bode figures here")
+    p.add_argument("--plot", default=None, metavar="DIR",
+                   help=f"write the residual and Bode figures here ({', '.join(PLOT_NAMES)})")
     p.add_argument("--seed", type=seed, default=0,
                    help="seed of the scan's calibration replicates (default 0)")
     p.add_argument("--max-rounds", type=int_at_least(1), default=4,

@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 
 from ..paths import check_outputs
-from ._common import add_output_args, add_parser, note
+from ._common import add_output_args, add_parser, note, quantity
 
 EXAMPLES = """\
 bayes-emt export ud_fit.json --data speaker.zma --zma ud_fitted.zma
@@ -32,7 +32,8 @@ def register(sub) -> None:
     p.add_argument("--grid", default=None, metavar="FMIN:FMAX:N", help="log grid in Hz, e.g. 10:20000:500")
     p.add_argument("--wdr", default=None, metavar="OUT", help="WinISD driver file (from a T/S JSON)")
     p.add_argument("--hornresp", default=None, metavar="OUT", help="Hornresp driver record (from a T/S JSON)")
-    p.add_argument("--sd", type=float, default=None, metavar="M2", help="Sd [m^2] if the T/S JSON lacks it")
+    p.add_argument("--sd", type=quantity("area"), default=None, metavar="AREA",
+                   help="Sd if the T/S JSON lacks it: m^2, or with a unit (85cm2)")
     add_output_args(p)
     p.set_defaults(func=run)
 
