@@ -168,7 +168,8 @@ def test_units_in_the_api_and_their_si_values():
 def test_api_takes_units_and_refuses_the_same_mistakes(driver):
     sim, _, _, _ = driver
     r = thiele_small(sim.free, "I+semi_inductance", loaded=[(sim.loaded[0][0], "10g")], sd="133cm2",
-                     fast=True, models_for_spread=[])
+                     fast=True, models_for_spread=[], exclude_band=[("5kHz", "5.2kHz")])
+    assert r.inputs["exclude_band_hz"] == [[5000.0, 5200.0]]
     assert r["Mms"] == pytest.approx(sim.truth["Mms"], rel=0.05)
     assert r.inputs["sd_m2"] == pytest.approx(0.0133)
     assert not [w for w in r.warnings if w["code"] == "small_added_mass"]

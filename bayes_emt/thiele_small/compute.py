@@ -441,6 +441,9 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
               if isinstance(item, tuple | list) and len(item) == 2 else item for i, item in enumerate(loaded)]
     if box is not None and isinstance(box, tuple | list) and len(box) == 2:
         box = (box[0], as_si(box[1], "volume", "box volume"))
+    if exclude_band:
+        exclude_band = [tuple(as_si(x, "frequency", "exclude_band", bare="Hz") for x in b)
+                        for b in exclude_band]
     if mms is not None and bl is not None:
         raise ValueError("give a known mms or a known bl, not both")
     if loaded and box is not None:
