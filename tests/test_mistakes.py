@@ -188,3 +188,12 @@ def test_omega_min_with_a_unit_selects_the_same_points(driver, tmp_path, capsys)
                  "--quiet"]) == 0
     ra, rb = json.loads(a.read_text()), json.loads(b.read_text())
     assert ra["n_points"] == rb["n_points"] and ra["parameters"] == rb["parameters"]
+
+
+def test_the_gram_mistake_is_refused_by_every_command_that_takes_a_mass(driver, capsys):
+    _, free, loaded, _ = driver
+    for argv in (["added-mass", free, loaded, "--delta-m", "8.017", "--model", "I"],
+                 ["sample", free, "--loaded", loaded, "--delta-m", "8.017", "--model", "I"],
+                 ["diagnose", free, "--also", f"{loaded}:8.017"]):
+        rc, _, err = _run(argv, capsys)
+        _refused(rc, err, "8.017g")

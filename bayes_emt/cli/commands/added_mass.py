@@ -51,6 +51,9 @@ def run(args) -> int:
     from ...io.paramfile import write_json
 
     check_outputs([("--json", args.json)], [("BASE", args.base), ("LOADED", args.loaded)])
+    from ...thiele_small.plausibility import check_inputs
+
+    check_inputs(deltas=[args.delta_m])  # 8.017 meaning grams is refused before any fit
     opts = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity}
     base = read_measurement(args.base, **opts).select(args.omega_min, args.omega_max)
     loaded = read_measurement(args.loaded, **opts).select(args.omega_min, args.omega_max)

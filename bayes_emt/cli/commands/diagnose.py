@@ -110,6 +110,12 @@ def run(args) -> int:
     from ._common import model_from_args
 
     also = [also_arg(a) for a in args.also]
+    from ...thiele_small.plausibility import MAX_MASS_KG
+
+    for f, dm in also:  # a mass meant in grams, given bare (kg)
+        if dm is not None and abs(dm) > MAX_MASS_KG:
+            raise ValueError(f"--also {f}:{dm:g}: {dm:g} kg is heavier than any cone; did you mean "
+                             f"{f}:{dm:g}g?")
     check_outputs([("--json", args.json)], [("DATA", args.data)] + [("--also", f) for f, _ in also],
                   folders=[("--plot", args.plot, PLOT_NAMES)])
     meas = read_measurement(

@@ -111,6 +111,10 @@ def run(args) -> int:
     if args.nu is not None and args.likelihood != "student":
         raise ValueError(f"--nu {args.nu} applies to --likelihood student only (the Gaussian likelihood "
                          "has no degrees of freedom); add --likelihood student or drop --nu")
+    if args.delta_m is not None:  # 8.017 meaning grams is refused before any sampling
+        from ...thiele_small.plausibility import check_inputs
+
+        check_inputs(deltas=[args.delta_m])
     nu = None if args.nu == "sample" else DEFAULT_NU if args.nu is None else args.nu
     if args.loaded is not None and nu is None:
         raise ValueError("--nu sample is not offered with --loaded; give a number of degrees of freedom")
