@@ -85,12 +85,17 @@ def test_ts(files, capsys, monkeypatch):
 
 
 def test_diagnose(files, capsys):
+    d = files["dir"]
     base = ["--max-rounds", "1", "--workers", "1", "--quiet"]
-    rc, text = _rc(["diagnose", files["rec"], "--model", "I", "--time-budget", "0", *base], capsys)
-    assert rc == 0 and "no significant mismatch" in text
-    # a budget that cuts the search short: the result is delivered but untrusted
-    rc, text = _rc(["diagnose", files["ud"], "--model", "I", "--time-budget", "0.001", *base], capsys)
-    assert rc == 1 and "time budget" in text
+    rc, _ = _rc(["diagnose", files["rec"], "--model", "I", "--time-budget", "0", *base,
+                 "--json", str(d / "d0.json")], capsys)
+    assert rc == 0
+    assert not json.loads((d / "d0.json").read_text())["findings"]
+    # a budget that cuts the search short: the result is delivered (saved) but untrusted
+    rc, _ = _rc(["diagnose", files["ud"], "--model", "I", "--time-budget", "0.001", *base,
+                 "--json", str(d / "d1.json")], capsys)
+    assert rc == 1
+    assert any("time budget" in w for w in json.loads((d / "d1.json").read_text())["warnings"])
     assert _rc(["diagnose", files["rec"], "--max-rounds", "0"], capsys)[0] == 2
 
 
@@ -98,10 +103,12 @@ def test_diagnose(files, capsys):
 def test_diagnose_findings_alone_exit_0(files, capsys):
     """A diagnosis that names physics (UD data started from I: the eddy currents) is a delivered
     result, not a failure: exit 0 (it was 1 whenever warnings were present)."""
+    out = files["dir"] / "d2.json"
     rc, text = _rc(["diagnose", files["ud"], "--model", "I", "--max-rounds", "1", "--workers", "1",
-                    "--time-budget", "0", "--quiet"], capsys)
+                    "--time-budget", "0", "--quiet", "--json", str(out)], capsys)
     assert rc == 0, text
-    assert "finding 1" in text or "unexplained" in text
+    rec = json.loads(out.read_text())
+    assert rec["findings"] or rec["unexplained"]
 
 
 def test_compare(files, capsys):
