@@ -229,7 +229,8 @@ def ts_section(rf: RunFiles, run: dict | None) -> dict:
         else:
             return _section("ts", "Thiele–Small parameters", True, rows=ts.rows(), model=ts.model,
                             method=ts.method.replace("_", " "), intervals=True,
-                            uncertainty=ts.inputs.get("uncertainty", "posterior"), figure=_ts_figure(rf, ts))
+                            uncertainty=ts.inputs.get("uncertainty", "posterior"),
+                            figure=_ts_figure(rf, ts) or rf.glob_image("ts_fit.png"))
     fits = rf.json(L.FITS)
     if isinstance(fits, dict) and fits:
         from ..io.paramfile import model_from_record
