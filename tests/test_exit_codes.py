@@ -139,7 +139,7 @@ def test_shunt_simulate_export_info_hankel_report(files, capsys):
     assert _rc(["report", str(d / "none")], capsys)[0] == 2
 
 
-def test_added_mass(tmp_path, capsys):
+def test_added_mass(tmp_path, capsys, monkeypatch):
     from bayes_emt.thiele_small.simulate import simulate_driver
 
     sim = simulate_driver("I+semi_inductance", deltas=(0.010,), n_points=200, seed=5)
@@ -151,3 +151,11 @@ def test_added_mass(tmp_path, capsys):
     assert rc == 0, text
     assert json.loads(out.read_text())["success"] is True
     assert _rc(["added-mass", str(a), str(b), "--delta-m", "0g", "--model", "I"], capsys)[0] == 2
+    # the joint optimiser reporting failure (forced) makes the delivered result untrusted
+    from bayes_emt.added_mass import fit as am
+
+    real = am.fit_added_mass
+    monkeypatch.setattr(am, "fit_added_mass",
+                        lambda *a, **k: dataclasses.replace(real(*a, **k), success=False, message="forced"))
+    assert _rc(["added-mass", str(a), str(b), "--delta-m", "10g", "--model", "I+semi_inductance"],
+               capsys)[0] == 1

@@ -84,6 +84,8 @@ def run(args) -> int:
     if args.json:
         write_json(args.json, r.to_json_dict())
         note(args, f"wrote {args.json}")
+    if not r.success:
+        print(f"note: the joint optimiser did not converge ({r.message}): the values are not to be trusted")
     from ..exitcodes import status
 
-    return status(not getattr(r, "success", True))
+    return status(not r.success)
