@@ -54,11 +54,13 @@ def plot_ts_fit(ts, *, ax=None):
         a_mag.plot(bench["f_hz"], bench["abs_z_ohm"], "--", lw=1.0, color="tab:blue",
                    label=f"{bench.get('label', 'bench')}'s own fit (from the file)")
     a_mag.set_yscale("log")
-    from matplotlib.ticker import ScalarFormatter
+    from matplotlib.ticker import LogLocator, ScalarFormatter
 
+    # ohms as plain numbers: every integer step within a decade, 1-2-5 over more than one
+    span = float(np.nanmax(zd) / np.nanmin(zd))
     a_mag.yaxis.set_major_formatter(ScalarFormatter())
-    if np.nanmax(zd) / np.nanmin(zd) < 20:  # less than about a decade: label the minor ticks too
-        a_mag.yaxis.set_minor_formatter(ScalarFormatter())
+    a_mag.yaxis.set_minor_locator(LogLocator(subs=(2.0, 3.0, 4.0, 6.0) if span < 10 else (2.0, 5.0)))
+    a_mag.yaxis.set_minor_formatter(ScalarFormatter())
     a_mag.set_ylabel("|Z| [Ω]")
     a_mag.legend(fontsize=8, loc="best")
     a_ph.fill_between(f, plo, phi, color="tab:orange", alpha=0.35, lw=0)
