@@ -197,3 +197,20 @@ def test_the_gram_mistake_is_refused_by_every_command_that_takes_a_mass(driver, 
                  ["diagnose", free, "--also", f"{loaded}:8.017"]):
         rc, _, err = _run(argv, capsys)
         _refused(rc, err, "8.017g")
+
+
+def test_a_vented_box_given_as_the_sealed_test_box_warns(driver, tmp_path):
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from vented_box import simulate_vented_box
+
+    sim = driver[0]
+    ported = simulate_vented_box(0, noise=0.003, seed=2)
+    r = thiele_small(sim.free, "I+semi_inductance", box=(ported, "20L"), sd="133cm2", fast=True,
+                     models_for_spread=[])
+    assert any(w["code"] == "vented_curve" and "sealed box" in w["message"] for w in r.warnings)
+    r = thiele_small(sim.free, "I+semi_inductance", box=(sim.box[0], "10L"), sd="133cm2", fast=True,
+                     models_for_spread=[])
+    assert not any(w["code"] == "vented_curve" for w in r.warnings)

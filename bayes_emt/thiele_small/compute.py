@@ -535,6 +535,12 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                       "message": f"{meas.source}: {vented}: a vented box's signature, not a free-air "
                                  "driver's; the T/S method assumes DATA is the driver in free air (for a "
                                  "box, diagnose --setup vented reads the port's tuning fb)"})
+    vented_box = None if bx is None else vented_signature(bx[0])
+    if vented_box is not None:
+        warns.append({"code": "vented_curve", "short": "the box recording has a vented box's two peaks: "
+                      "the added-volume method needs a sealed box",
+                      "message": f"{bx[0].source}: {vented_box}: the box is ported; the added-volume "
+                                 "method assumes a sealed box (Vas would be wrong)"})
     if fast:
         warns.append({"code": "fast_intervals", "short": "intervals from the fit's covariance (--fast), not "
                       "the posterior", "message": "intervals from the least-squares fit's Gaussian "
