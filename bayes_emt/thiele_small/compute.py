@@ -73,7 +73,7 @@ from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from .curve import fit_curve
-from .plausibility import check_inputs, check_result, vented_signature
+from .plausibility import check_inputs, check_result, setup_warnings
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
@@ -528,19 +528,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                         "model_spread": [min(vals), max(vals)] if len(vals) > 1 or (vals and not main_in)
                         else None}
     warns += check_result(params, method=method, sd=sd, mms=mms, bl=bl, deltas=[d for _, d in lm])
-    vented = vented_signature(meas)
-    if vented is not None:
-        warns.append({"code": "vented_curve", "short": "the curve has a vented box's two peaks, not free "
-                      "air's one: these are not free-air T/S values",
-                      "message": f"{meas.source}: {vented}: a vented box's signature, not a free-air "
-                                 "driver's; the T/S method assumes DATA is the driver in free air (for a "
-                                 "box, diagnose --setup vented reads the port's tuning fb)"})
-    vented_box = None if bx is None else vented_signature(bx[0])
-    if vented_box is not None:
-        warns.append({"code": "vented_curve", "short": "the box recording has a vented box's two peaks: "
-                      "the added-volume method needs a sealed box",
-                      "message": f"{bx[0].source}: {vented_box}: the box is ported; the added-volume "
-                                 "method assumes a sealed box (Vas would be wrong)"})
+    warns += setup_warnings(meas, None if bx is None else bx[0])
     if fast:
         warns.append({"code": "fast_intervals", "short": "intervals from the fit's covariance (--fast), not "
                       "the posterior", "message": "intervals from the least-squares fit's Gaussian "

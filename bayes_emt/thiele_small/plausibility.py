@@ -39,7 +39,7 @@ import numpy as np
 from ..errors import BayesEMTError
 from ..measurement import Measurement
 
-__all__ = ["ImplausibleInput", "check_inputs", "check_result", "vented_signature", "OPTION"]
+__all__ = ["ImplausibleInput", "check_inputs", "check_result", "vented_signature", "setup_warnings", "OPTION"]
 
 #: the command-line option of each keyword (the messages name both)
 OPTION = {"sd": "--sd", "mms": "--mms", "bl": "--bl", "delta_m": "--delta-m", "box_volume": "--box-volume"}
@@ -187,3 +187,23 @@ def vented_signature(meas: Measurement) -> str | None:
                         f"{sm[j]:.3g} ohm at {f[j]:.4g} Hz, with a minimum of {sm[dip]:.3g} ohm at "
                         f"{f[dip]:.4g} Hz between them")
     return None
+
+
+def setup_warnings(meas: Measurement, box: Measurement | None = None) -> list[dict]:
+    """``vented_curve`` warnings: the free-air recording ``meas``, or the sealed test box's ``box``,
+    shows a vented box's two resonance peaks (:func:`vented_signature`)."""
+    out = []
+    vented = vented_signature(meas)
+    if vented is not None:
+        out.append({"code": "vented_curve", "short": "the curve has a vented box's two peaks, not free "
+                    "air's one: these are not free-air T/S values",
+                    "message": f"{meas.source}: {vented}: a vented box's signature, not a free-air "
+                               "driver's; the T/S method assumes DATA is the driver in free air (for a "
+                               "box, diagnose --setup vented reads the port's tuning fb)"})
+    vented_box = None if box is None else vented_signature(box)
+    if vented_box is not None:
+        out.append({"code": "vented_curve", "short": "the box recording has a vented box's two peaks: "
+                    "the added-volume method needs a sealed box",
+                    "message": f"{box.source}: {vented_box}: the box is ported; the added-volume "
+                               "method assumes a sealed box (Vas would be wrong)"})
+    return out
