@@ -73,3 +73,18 @@ def test_the_glued_report_renders_in_headless_chromium(folder):
     for sid in SECTIONS:
         assert f'id="sec-{sid}" class="ran"' in dom, sid
     assert dom.count('src="data:image/png;base64,') >= 6
+
+
+def test_a_sample_netcdf_alone_makes_the_posterior_section(folder, tmp_path):
+    import shutil
+
+    only = tmp_path / "nc_only"
+    only.mkdir()
+    shutil.copy(folder / "chain.nc", only / "my_chain.nc")
+    assert main(["report", str(only), "--quiet"]) == 0
+    html = (only / "report.html").read_text()
+    assert '<section id="sec-posterior" class="ran">' in html
+    assert "R0" in html and 'data-figure="bode"><img' in html
+    assert "did NOT converge" in html  # the 150-step chain's flag reaches the top of the page
+    assert {p.name for p in only.iterdir()} == {"my_chain.nc", "report.html", "posterior_bode.png",
+                                               "posterior_corner.png"}

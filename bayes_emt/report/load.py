@@ -49,6 +49,8 @@ class RunFiles:
     root: Path
     problems: list[str] = field(default_factory=list)
     _index: dict | None = field(default=None, repr=False)
+    #: results computed from the folder's files once per report (e.g. a posterior's summary)
+    cache: dict = field(default_factory=dict, repr=False)
 
     def index(self) -> dict[str, list[tuple[str, dict]]]:
         """``kind → [(file name, record), ...]`` of the folder's JSON files (sorted by name)."""

@@ -63,6 +63,8 @@ def fits_section(rf: RunFiles, run: dict | None) -> dict:
 
 def posterior_section(rf: RunFiles, run: dict | None) -> dict:
     post = rf.json(L.POSTERIOR_JSON)
+    if not isinstance(post, dict):  # a sample --out netCDF file alone: its summary, read from it
+        post = _posterior_summary(rf)
     # the demo's names, else the figures sample --plot wrote (posterior_<model>_bode.png, ...)
     bode = rf.image(L.POSTERIOR_BODE) or rf.glob_image("posterior_*_bode.png")
     corner = rf.image(L.POSTERIOR_CORNER) or rf.glob_image("posterior_*_corner.png")
@@ -76,6 +78,32 @@ def posterior_section(rf: RunFiles, run: dict | None) -> dict:
     derived = [{"name": k, **v} for k, v in post.get("derived", {}).items()]
     return _section("posterior", "Posterior (emcee)", True, post=post, params=params, derived=derived,
                     bode=bode, corner=corner, truth=(run or {}).get("truth") or {})
+
+
+def _posterior_summary(rf: RunFiles) -> dict | None:
+    """The ``sample --json`` summary of the folder's posterior netCDF file, when no JSON summary
+    was saved (``None`` when there is no such file; a problem line when it cannot be read)."""
+    from .figures import posterior_nc
+
+    if "posterior_summary" in rf.cache:  # read once per report
+        return rf.cache["posterior_summary"]
+    rf.cache["posterior_summary"] = None
+    nc = posterior_nc(rf.root)
+    if nc is None:
+        return None
+    from ..api import read_posterior
+
+    try:
+        post = read_posterior(nc)
+    except (OSError, KeyError, TypeError, ValueError) as exc:
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        rf.problems.append(f"{nc}: could not be read as a posterior ({first})")
+        return None
+    rec = post.to_json_dict()
+    if not post.converged:
+        rec["warnings"] = [{"code": "not_converged", "message": post.message}]
+    rf.cache["posterior_summary"] = rec
+    return rec
 
 
 def evidence_section(rf: RunFiles, run: dict | None) -> dict:
@@ -293,6 +321,8 @@ def collect_warnings(rf: RunFiles, run: dict | None) -> list[dict]:
     if isinstance(cmp, dict):
         out += [normalise_warning(w, "evidence") for w in cmp.get("warnings", [])]
     post = rf.json(L.POSTERIOR_JSON)
+    if not isinstance(post, dict):
+        post = _posterior_summary(rf)
     if isinstance(post, dict):
         if post.get("converged") is False:
             out.append(normalise_warning(f"the posterior did NOT converge: {post.get('message')}; its "
