@@ -1,11 +1,15 @@
-"""``bayes-emt ts DATA [--model SPEC] [--loaded FILE --delta-m KG]... [--box FILE --box-volume M3]
-[--sd M2] [--re OHM[:SD]] [--mms KG | --bl TM] [--exclude-band F1:F2]... [--fast] [--json OUT]``:
-Thiele–Small parameters with 90 % intervals and their spread across coil models.
+"""``bayes-emt ts DATA [--model SPEC] [--loaded FILE --delta-m MASS]... [--box FILE --box-volume
+VOLUME] [--sd AREA] [--re OHM[:SD]] [--mms MASS | --bl BL] [--exclude-band F1:F2]... [--fast]
+[--json OUT] [--plot DIR]``: Thiele–Small parameters with 90 % intervals and their spread across
+coil models.
 
 Free air alone gives fs, Re, Le, Qms, Qes, Qts, EBP (and with a known Mms or Bl the rest);
 added-mass recordings (one or more, each with its mass) are fitted in one joint posterior and
 give Bl, Mms, Cms, Kms, Rms; a sealed test box of known volume gives Vas; with Sd also Vas, η0
-and SPL at 2.83 V / 1 m. The library call is :func:`bayes_emt.thiele_small.thiele_small`.
+and SPL at 2.83 V / 1 m. Quantities take a unit (10g, 330cm2, 20L; a bare number is SI), and
+values no driver has are refused naming the option. Exit status 0, 1 when a posterior did not
+meet its stopping rule, 2 on bad input. The library call is
+:func:`bayes_emt.thiele_small.thiele_small`.
 """
 
 from __future__ import annotations
