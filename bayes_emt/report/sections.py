@@ -110,7 +110,8 @@ def evidence_section(rf: RunFiles, run: dict | None) -> dict:
     cmp = rf.json(L.COMPARISON)
     if not isinstance(cmp, dict) or not cmp.get("models"):
         return _section("evidence", "Model comparison by evidence", False,
-                        _step_note(run, "compare", "Not run: no comparison.json in this folder."))
+                        _step_note(run, "compare", "Not run: no comparison.json and no compare --json "
+                                   "output in this folder."))
     methods = [m for m in ("nested", "bridge", "laplace")
                if any(m in x.get("by_method", {}) for x in cmp["models"])]
     rows = []
