@@ -1,4 +1,4 @@
-"""``bayes-emt ts DATA [--model SPEC] [--loaded FILE --delta-m MASS]... [--box FILE --box-volume
+"""``bayes-emt ts DATA [--model MODEL] [--loaded FILE --delta-m MASS]... [--box FILE --box-volume
 VOLUME] [--sd AREA] [--re OHM[:SD]] [--mms MASS | --bl BL] [--exclude-band F1:F2]... [--fast]
 [--json OUT] [--plot DIR]``: Thiele–Small parameters with 90 % intervals and their spread across
 coil models.
