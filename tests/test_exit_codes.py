@@ -159,3 +159,11 @@ def test_added_mass(tmp_path, capsys, monkeypatch):
                         lambda *a, **k: dataclasses.replace(real(*a, **k), success=False, message="forced"))
     assert _rc(["added-mass", str(a), str(b), "--delta-m", "10g", "--model", "I+semi_inductance"],
                capsys)[0] == 1
+
+
+def test_demo_and_batch_refuse_bad_input_with_2(tmp_path, capsys):
+    """Their delivered (0) and untrusted (1) cases are held by tests/test_demo.py (the quick demo's
+    unconverged preferred posterior: 1) and tests/test_batch.py (a broken recording: 1)."""
+    missing = str(tmp_path / "missing.csv")
+    assert _rc(["demo", "--data", missing, "--out", str(tmp_path / "d")], capsys)[0] == 2
+    assert _rc(["batch", str(tmp_path / "none"), "--out", str(tmp_path / "b")], capsys)[0] == 2
