@@ -9,7 +9,8 @@ command line needs (naming the option, the unit and the units it accepts) and ca
 ``Quantity`` object into the numerical code. Frequencies come in two SI flavours, Hz and rad/s:
 each option says which one a bare number means, and a unit converts between them by 2π.
 
-Grammar: ``NUMBER [space] UNIT``, the unit case-insensitive, ``^2``/``²`` and ``^3``/``³``
+Grammar: ``NUMBER [space] UNIT``, the unit case-insensitive except that a capital ``M`` (mega)
+is refused where lower case would read it as milli (``MOhm``, ``Mg``), ``^2``/``²`` and ``^3``/``³``
 accepted (``cm^2``, ``cm²``, ``cm2``), ``·``/``*``/space in ``T·m`` optional.
 """
 
@@ -97,6 +98,9 @@ def parse_quantity(text: str, dimension: str, *, bare: str | None = None) -> flo
         return value
     u = _norm(unit)
     table = UNITS[dimension]
+    if unit.lstrip()[:1] == "M" and u[:1] == "m" and table.get(u, 1.0) < 1.0:
+        # 'MOhm', 'Mg': mega, which lower case would silently read as milli (1e9 apart)
+        raise UnitError(f"{text!r}: {unit} reads as mega; write m for milli (e.g. 20mohm, 500mg)")
     if u not in table:
         other = _dimension_of(u)
         if other is not None:

@@ -163,6 +163,10 @@ def test_units_in_the_api_and_their_si_values():
     assert parse_quantity("62.83", "frequency", bare="rad/s") == 62.83  # bare: today's rad/s
     with pytest.raises(UnitError, match="not a mass"):
         parse_quantity("3L", "mass")
+    for mega, dim in (("1MOhm", "resistance"), ("2Mg", "mass")):  # never read as milli
+        with pytest.raises(UnitError, match="reads as mega"):
+            parse_quantity(mega, dim)
+    assert parse_quantity("20mOhm", "resistance") == pytest.approx(0.020, rel=1e-12)
 
 
 def test_api_takes_units_and_refuses_the_same_mistakes(driver):
