@@ -140,8 +140,15 @@ class Measurement:
         """The points outside every ``(f1_hz, f2_hz)`` of ``bands_hz`` (inclusive ends, Hz): a narrow
         feature no lumped model explains (cone break-up, a surround dip) left out of a fit. An empty
         ``bands_hz`` returns ``self``; a band with ``f1 >= f2`` or a non-finite end, or one that
-        leaves fewer than 8 points, raises :class:`DataFormatError` naming it."""
-        bands = [tuple(b) for b in (bands_hz or ())]
+        leaves fewer than 8 points, raises :class:`DataFormatError` naming it. An end may be a string
+        with a unit (``("20Hz", "1kHz")``, :mod:`bayes_emt.units`)."""
+        from .units import UnitError, as_si
+
+        try:
+            bands = [tuple(as_si(x, "frequency", "exclude band", bare="Hz") for x in b)
+                     for b in (bands_hz or ())]
+        except (UnitError, TypeError) as exc:
+            raise DataFormatError(f"{self.source}: {exc}") from None
         if not bands:
             return self
         keep = np.ones(self.n_points, bool)

@@ -36,7 +36,9 @@ def demo(tmp_path_factory):
 
 def test_quick_demo_runs_the_chain_and_says_what_it_cut(demo):
     rc, out, text = demo
-    assert rc == 0 and "NOT CONVERGED" in text and "exit code 1" not in text
+    # the exit-status table: a delivered result that is not to be trusted (an unconverged preferred
+    # posterior) exits 1, and says why
+    assert rc == 1 and "NOT CONVERGED" in text and "did not converge: exit code 1" in text
     expected = {"run.json", "fits.json", "comparison.json", "evidence.png", "posterior.nc", "posterior.json",
                 "posterior_bode.png", "posterior_corner.png", "residuals.png", "shunts.json",
                 "robust_shunt.json", "shunt_robust_gain.png", "report.html"}

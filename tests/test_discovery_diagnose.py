@@ -111,7 +111,8 @@ def test_diagnose_command_writes_json_and_figures(tmp_path, capsys):
     rec = json.loads(out.read_text())
     assert TOP <= set(rec) and rec["final_model"] == "UD+winding_capacitance"
     assert "finding 1: winding_capacitance [device]" in text and "Hz" in text and "nats" in text
-    assert (plots / "residuals.png").stat().st_size > 0 and (plots / "bode.png").stat().st_size > 0
+    assert (plots / "diagnosis_residuals.png").stat().st_size > 0
+    assert (plots / "diagnosis_bode.png").stat().st_size > 0  # named apart from the report's residuals.png
 
 
 def test_a_final_model_that_moves_r0_by_more_than_five_percent_is_warned_about():

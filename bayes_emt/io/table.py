@@ -61,6 +61,11 @@ def _merge(lay: Layout, options: dict, *, where: str, is_zma: bool, notices: lis
             name, opt, _ = _NAMES[attr]
             raise DataFormatError(f"{where} says the {name} is {_LABEL[have]}, but --{opt} {given} "
                                   "was given")
+        if is_zma and attr == "freq_unit" and given != ZMA_CONVENTION[attr] and attr not in lay.units_from:
+            # a .zma file's frequencies are Hz by definition (the format of LspCAD, LIMP, REW's
+            # export): another unit is a mistake that would move every resonance by 2 pi
+            raise DataFormatError(f"{where}: a .zma file's frequencies are Hz by definition, but "
+                                  f"--freq-unit {given} was given; drop --freq-unit")
         if is_zma and given != ZMA_CONVENTION[attr] and attr not in lay.units_from:
             notices.append(f"--{_NAMES[attr][1]} {given} overrides the .zma convention "
                            f"({_LABEL[ZMA_CONVENTION[attr]]})")

@@ -3,12 +3,13 @@ mechanical quality factor, the coil's low-frequency inductance.
 
 Each entry of :data:`DERIVED` is ``name → (unit, description, f(model, theta (..., k)) → (...))``,
 vectorised over parameter sets; :func:`derived_values` evaluates them for one vector.
-``fs = ω0/(2π)`` [Hz] and ``Qms = 1/(2ζ)`` [1] are the plant's own resonance and damping (docs: Physics);
-under a frequency-dependent compliance (suspension creep) they are the model's ω0 and ζ, not the
-Thiele–Small definitions at the impedance maximum. Those are :func:`mechanical_resonance`'s: the
-resonance of the mechanical impedance with every stiffness term (``Im Zm(jωs) = 0``) and all its loss
-at ωs (the creep's as well as the viscous), the convention of the tools that fit LOG creep
-(:mod:`bayes_emt.thiele_small.relations` says whose); without such a term they are ω0 and 1/(2ζ).
+``fs`` [Hz] and ``Qms`` [1] follow the Thiele–Small convention everywhere they are named so
+(tables, JSON, the report): :func:`mechanical_resonance`'s resonance of the mechanical impedance
+with every stiffness term (``Im Zm(jωs) = 0``) and all its loss at ωs (the creep's as well as the
+viscous), the convention of the tools that fit LOG creep (:mod:`bayes_emt.thiele_small.relations`
+says whose). Without a frequency-dependent stiffness they equal ``ω0/(2π)`` and ``1/(2ζ)``
+exactly; with one, ``ω0`` and ``ζ`` are only the model's parameters and are shown under those
+names, never as fs or Qms.
 """
 
 from __future__ import annotations
@@ -29,23 +30,27 @@ def coil_inductance_lf(model: Model, theta: np.ndarray) -> np.ndarray:
     return model.coil_impedance(np.array([w]), theta)[..., 0].imag / w
 
 
-def _column(name: str, fn: Callable[[np.ndarray], np.ndarray]):
-    def f(model: Model, theta: np.ndarray) -> np.ndarray:
-        if name not in model.names:
-            return np.full(np.shape(theta)[:-1], np.nan)
-        return fn(np.asarray(theta, float)[..., model.names.index(name)])
-
-    return f
-
-
 #: name → (unit, description, f(model, theta (..., k_model)) → (...)); NaN where the model lacks
 #: the parameter the quantity needs
 DERIVED: dict[str, tuple[str, str, Callable[[Model, np.ndarray], np.ndarray]]] = {
-    "fs": ("Hz", "mechanical resonance frequency omega0/(2 pi)",
-           _column("omega0", lambda w: w / (2 * math.pi))),
-    "Qms": ("1", "mechanical quality factor 1/(2 zeta)", _column("zeta", lambda z: 1.0 / (2.0 * z))),
+    "fs": ("Hz", "mechanical resonance: where the mechanical reactance vanishes (Thiele-Small fs)",
+           lambda model, theta: _resonance(model, theta, 0)),
+    "Qms": ("1", "mechanical quality factor at fs, all mechanical loss included (Thiele-Small Qms)",
+            lambda model, theta: _resonance(model, theta, 1)),
     "L_lf": ("H", "low-frequency coil inductance, lim Im Zc(jw)/w as w -> 0", coil_inductance_lf),
 }
+
+
+def _resonance(model: Model, theta: np.ndarray, which: int) -> np.ndarray:
+    """fs [Hz] (``which`` 0) or Qms (1) of :func:`mechanical_resonance` for ``theta (..., k)``; NaN
+    when the model has no mechanical resonance (no ζ, ω0)."""
+    theta = np.asarray(theta, float)
+    if not {"zeta", "omega0"} <= set(model.names):
+        return np.full(theta.shape[:-1], np.nan)
+    flat = theta.reshape(-1, theta.shape[-1])
+    out = mechanical_resonance(model, flat)
+    val = out[0] / (2 * math.pi) if which == 0 else out[1]
+    return np.asarray(val, float).reshape(theta.shape[:-1])
 
 
 def derived_values(model: Model, theta) -> dict[str, float]:

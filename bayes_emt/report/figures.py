@@ -10,7 +10,17 @@ from pathlib import Path
 
 from . import layout as L
 
-__all__ = ["redraw_posterior_figures"]
+__all__ = ["redraw_posterior_figures", "posterior_nc"]
+
+
+def posterior_nc(root: Path) -> Path | None:
+    """The folder's posterior netCDF file: ``posterior.nc``, else its one ``*.nc`` file (``sample
+    --out`` under another name), else ``None``."""
+    nc = root / L.POSTERIOR_NC
+    if nc.is_file():
+        return nc
+    found = sorted(root.glob("*.nc"))
+    return found[0] if len(found) == 1 else None
 
 
 def redraw_posterior_figures(run_dir: str | Path) -> list[str]:
@@ -19,8 +29,11 @@ def redraw_posterior_figures(run_dir: str | Path) -> list[str]:
     Returns one line per problem (an unreadable netCDF file), never raises for one.
     """
     root = Path(run_dir)
-    nc = root / L.POSTERIOR_NC
-    want = [n for n in (L.POSTERIOR_BODE, L.POSTERIOR_CORNER) if not (root / n).is_file()]
+    nc = posterior_nc(root) or root / L.POSTERIOR_NC
+    # a figure sample --plot already drew (posterior_<model>_bode.png) is used as it is
+    drawn = {L.POSTERIOR_BODE: "posterior_*_bode.png", L.POSTERIOR_CORNER: "posterior_*_corner.png"}
+    want = [n for n, pat in drawn.items() if not (root / n).is_file() and not any(root.glob(pat))
+            and not any(root.glob(f"*/{pat}"))]
     if not nc.is_file() or not want:
         return []
     from ..api import read_posterior

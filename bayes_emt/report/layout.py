@@ -1,7 +1,8 @@
 """The files of a run folder that the report reads (one place for their names).
 
-A run folder is what ``bayes-emt demo --out DIR`` writes; any folder holding some of these files
-can be reported on (``bayes-emt report DIR``). Every entry is optional: the report renders the
+A run folder is what ``bayes-emt demo --out DIR`` writes; any folder holding some of these files,
+or the individual commands' outputs under any names (found by their recorded kind,
+:mod:`.load`), can be reported on (``bayes-emt report DIR``). Every entry is optional: the report renders the
 sections whose files exist and says plainly which steps were not run.
 
 ================================  =============================================================
@@ -23,6 +24,7 @@ file                              written by / content
 ``shunt_robust_*.png``            ``shunt --posterior --plot`` (gain bands, distributions, boundary)
 ``diagnosis.json``                ``diagnose --json``
 ``diagnosis_residuals.png``       residuals of the diagnosed recording with the flagged bands
+                                  (``diagnose --plot``, with ``diagnosis_bode.png``)
 ``diagnosis/*.png``               ``diagnose --plot`` figures
 ================================  =============================================================
 """

@@ -40,7 +40,8 @@ def fits_section(rf: RunFiles, run: dict | None) -> dict:
     hankel = rf.json(L.HANKEL)
     if not isinstance(fits, dict) or not fits:
         return _section("fits", "Least-squares fits", False,
-                        _step_note(run, "fit", "Not run: no fits.json in this folder."))
+                        _step_note(run, "fit", "Not run: no fits.json and no fit --json output in this "
+                                   "folder."))
     names: list[str] = []
     units: dict[str, str] = {}
     for rec in fits.values():
@@ -62,11 +63,16 @@ def fits_section(rf: RunFiles, run: dict | None) -> dict:
 
 def posterior_section(rf: RunFiles, run: dict | None) -> dict:
     post = rf.json(L.POSTERIOR_JSON)
-    bode, corner = rf.image(L.POSTERIOR_BODE), rf.image(L.POSTERIOR_CORNER)
+    if not isinstance(post, dict):  # a sample --out netCDF file alone: its summary, read from it
+        post = _posterior_summary(rf)
+    # the demo's names, else the figures sample --plot wrote (posterior_<model>_bode.png, ...)
+    bode = rf.image(L.POSTERIOR_BODE) or rf.glob_image("posterior_*_bode.png")
+    corner = rf.image(L.POSTERIOR_CORNER) or rf.glob_image("posterior_*_corner.png")
     if not isinstance(post, dict) and bode is None:
         return _section("posterior", "Posterior (emcee)", False,
                         _step_note(run, "sample",
-                                   "Not run: no posterior.json / posterior.nc in this folder."))
+                                   "Not run: no posterior.json / posterior.nc and no sample --json "
+                                   "output in this folder."))
     post = post or {}
     params = [{"name": k, **v} for k, v in post.get("parameters", {}).items()]
     derived = [{"name": k, **v} for k, v in post.get("derived", {}).items()]
@@ -74,11 +80,38 @@ def posterior_section(rf: RunFiles, run: dict | None) -> dict:
                     bode=bode, corner=corner, truth=(run or {}).get("truth") or {})
 
 
+def _posterior_summary(rf: RunFiles) -> dict | None:
+    """The ``sample --json`` summary of the folder's posterior netCDF file, when no JSON summary
+    was saved (``None`` when there is no such file; a problem line when it cannot be read)."""
+    from .figures import posterior_nc
+
+    if "posterior_summary" in rf.cache:  # read once per report
+        return rf.cache["posterior_summary"]
+    rf.cache["posterior_summary"] = None
+    nc = posterior_nc(rf.root)
+    if nc is None:
+        return None
+    from ..api import read_posterior
+
+    try:
+        post = read_posterior(nc)
+    except (OSError, KeyError, TypeError, ValueError) as exc:
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        rf.problems.append(f"{nc}: could not be read as a posterior ({first})")
+        return None
+    rec = post.to_json_dict()
+    if not post.converged:
+        rec["warnings"] = [{"code": "not_converged", "message": post.message}]
+    rf.cache["posterior_summary"] = rec
+    return rec
+
+
 def evidence_section(rf: RunFiles, run: dict | None) -> dict:
     cmp = rf.json(L.COMPARISON)
     if not isinstance(cmp, dict) or not cmp.get("models"):
         return _section("evidence", "Model comparison by evidence", False,
-                        _step_note(run, "compare", "Not run: no comparison.json in this folder."))
+                        _step_note(run, "compare", "Not run: no comparison.json and no compare --json "
+                                   "output in this folder."))
     methods = [m for m in ("nested", "bridge", "laplace")
                if any(m in x.get("by_method", {}) for x in cmp["models"])]
     rows = []
@@ -99,14 +132,21 @@ def shunt_section(rf: RunFiles, run: dict | None) -> dict:
     shunts = rf.json(L.SHUNTS)
     if not isinstance(shunts, dict) or not shunts:
         return _section("shunt", "RC shunt per model", False,
-                        _step_note(run, "shunt", "Not run: no shunts.json in this folder."))
+                        _step_note(run, "shunt", "Not run: no shunts.json and no shunt --json output in "
+                                   "this folder."))
     rows = []
     for model, d in shunts.items():
         ev = next((v for k, v in d.items() if k.startswith("evaluated_on_")), None)
         on = next((k[len("evaluated_on_"):] for k in d if k.startswith("evaluated_on_")), None)
+        if ev is None and isinstance(d.get("evaluated_on"), dict):  # shunt --evaluate-on's record
+            ev, on = d["evaluated_on"], str(d["evaluated_on"].get("params", ""))
         rows.append({"model": model, "Rs": d.get("Rs"), "Cs": d.get("Cs"), "att": d.get("attenuation_db"),
                      "on": on, "ev": ev or {}})
-    return _section("shunt", "RC shunt per model", True, rows=rows)
+    figs = [(cap, rf.glob_image(pat)) for pat, cap in
+            (("shunt_*_receptance.png", "receptance without and with the shunt against frequency [Hz]"),
+             ("shunt_*_attenuation_map.png", "attenuation over the (Rs, Cs) plane around the optimum"))]
+    return _section("shunt", "RC shunt per model", True, rows=rows,
+                    figures=[(c, uri) for c, uri in figs if uri])
 
 
 def robust_section(rf: RunFiles, run: dict | None) -> dict:
@@ -129,6 +169,9 @@ def diagnosis_section(rf: RunFiles, run: dict | None) -> dict:
     diag = rf.json(L.DIAGNOSIS)
     resid = rf.image(L.DIAGNOSIS_RESIDUALS)
     figs = []
+    bode = rf.image("diagnosis_bode.png")  # diagnose --plot DIR, DIR the run folder
+    if bode:
+        figs.append(("diagnosis bode", bode))
     folder = rf.path(L.DIAGNOSIS_DIR)
     if folder.is_dir():
         for p in sorted(folder.glob("*.png")):
@@ -215,7 +258,8 @@ def ts_section(rf: RunFiles, run: dict | None) -> dict:
         else:
             return _section("ts", "Thiele–Small parameters", True, rows=ts.rows(), model=ts.model,
                             method=ts.method.replace("_", " "), intervals=True,
-                            uncertainty=ts.inputs.get("uncertainty", "posterior"))
+                            uncertainty=ts.inputs.get("uncertainty", "posterior"),
+                            figure=_ts_figure(rf, ts) or rf.glob_image("ts_fit.png"))
     fits = rf.json(L.FITS)
     if isinstance(fits, dict) and fits:
         from ..io.paramfile import model_from_record
@@ -235,6 +279,26 @@ def ts_section(rf: RunFiles, run: dict | None) -> dict:
                                 method="free air, best least-squares fit", intervals=False, uncertainty="")
     return _section("ts", "Thiele–Small parameters", False,
                     "Not run: no ts.json and no fit to derive the free-air set from.")
+
+
+def _ts_figure(rf: RunFiles, ts) -> str | None:
+    """The T/S fit figure (the one ``ts --plot`` writes) drawn in memory from the result's saved
+    curve, as a data URI (nothing is written into the folder); ``None`` without a curve."""
+    if not ts.curve:
+        return None
+    import base64
+    import io
+
+    from ..plotting.thiele_small import plot_ts_fit
+
+    try:
+        fig = plot_ts_fit(ts)
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=90)
+    except (ValueError, KeyError, TypeError) as exc:
+        rf.problems.append(f"T/S: the fitted curve could not be drawn ({exc})")
+        return None
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
 def collect_sections(rf: RunFiles, run: dict | None) -> list[dict]:
@@ -258,6 +322,8 @@ def collect_warnings(rf: RunFiles, run: dict | None) -> list[dict]:
     if isinstance(cmp, dict):
         out += [normalise_warning(w, "evidence") for w in cmp.get("warnings", [])]
     post = rf.json(L.POSTERIOR_JSON)
+    if not isinstance(post, dict):
+        post = _posterior_summary(rf)
     if isinstance(post, dict):
         if post.get("converged") is False:
             out.append(normalise_warning(f"the posterior did NOT converge: {post.get('message')}; its "

@@ -72,6 +72,8 @@ from ..errors import DataFormatError
 from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
+from .curve import fit_curve
+from .plausibility import check_inputs, check_result, setup_warnings
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
@@ -118,6 +120,13 @@ def _measurement(x, where: str, read_options: dict | None, f_range_hz, exclude_b
     return meas.exclude_bands(exclude_band)
 
 
+def _volume_of(box) -> float | None:
+    try:
+        return float(box[1])
+    except (TypeError, ValueError, IndexError):
+        return None  # the shape is refused below, with its own message
+
+
 def _model(model) -> Model:
     return parse_model_spec(model) if isinstance(model, str) else model
 
@@ -144,6 +153,7 @@ class _Inputs:
     seed: int
     settings: object
     evidence: bool = True  # compute each model's Laplace evidence (only needed for the model spread)
+    curve: dict | None = None  # the main model's fitted free-air curve (curve.fit_curve)
 
 
 def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
@@ -283,6 +293,8 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                               "message": f"the {label} posterior did not meet the stopping rule: "
                                          f"{post.message}"})
             theta = post.theta()
+        if mode != "point" and label == "free air":
+            inp.curve = fit_curve(fit.model, theta, meas, fit.rms_rel_residual, inp.seed)
         rec = {"rms": fit.rms_rel_residual,
                "undetermined": undetermined(fit.model.params, fit.theta, fit.cov_z),
                "log_z": _single_evidence(meas, fit, prior_model) if inp.evidence else float("nan")}
@@ -325,6 +337,8 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                               "short": "the joint posterior did not meet the stopping rule",
                               "message": "the joint posterior did not meet the stopping rule: "
                                          f"{info['message']}"})
+        if mode != "point":
+            inp.curve = fit_curve(model, jm.thetas(x)[0], inp.meas, float(mfit.rms_rel_residual[0]), inp.seed)
         out = []
         for xx in (x, mfit.theta[None, :]):
             theta = jm.thetas(xx)[0]
@@ -396,6 +410,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
     loaded : ``[(recording, delta_m_kg), ...]``: added-mass recordings (method ``added_mass``).
     box : ``(recording, volume_m3)``: a sealed test box of known net volume (``added_volume``).
     sd : effective cone area Sd [m²] (Vas, η0, SPL; needed by ``added_volume`` for Cms, Mms, Bl).
+        Every quantity here (masses, volume, Sd, mms, bl, air) may instead be a string with a unit,
+        ``"85cm2"``, ``"8.017g"``, ``"20L"`` (:mod:`bayes_emt.units`); a bare number is SI.
     re : ohmmeter reading of the DC resistance: ohms (1 % sd), ``(ohms, sd)`` or ``(ohms, sd, mode)``
         with mode ``"cut"`` (default) or ``"prior"`` (:mod:`bayes_emt.estimation.meter`).
     mms, bl : a known moving mass [kg] or force factor [T m] (free air only; not both).
@@ -414,7 +430,20 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
     -------
     ThieleSmall
     """
-    loaded = list(loaded)
+    from ..units import as_si
+
+    # quantities may carry a unit ("85cm2", "8.017g", "20L"); a bare number is SI
+    sd, mms = as_si(sd, "area", "sd"), as_si(mms, "mass", "mms")
+    bl = as_si(bl, "force_factor", "bl")
+    air_density = as_si(air_density, "density", "air_density")
+    sound_speed = as_si(sound_speed, "speed", "sound_speed")
+    loaded = [(item[0], as_si(item[1], "mass", f"loaded[{i}] delta_m"))
+              if isinstance(item, tuple | list) and len(item) == 2 else item for i, item in enumerate(loaded)]
+    if box is not None and isinstance(box, tuple | list) and len(box) == 2:
+        box = (box[0], as_si(box[1], "volume", "box volume"))
+    if exclude_band:
+        exclude_band = [tuple(as_si(x, "frequency", "exclude_band", bare="Hz") for x in b)
+                        for b in exclude_band]
     if mms is not None and bl is not None:
         raise ValueError("give a known mms or a known bl, not both")
     if loaded and box is not None:
@@ -427,6 +456,9 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"{name} must be a positive number, got {v!r}")
     re_t = as_meter(re)
     main = _model(model)
+    check_inputs(sd=sd, mms=mms, bl=bl, box_volume=None if box is None else _volume_of(box),
+                 deltas=[float(it[1]) for it in loaded
+                         if isinstance(it, tuple | list) and len(it) == 2 and isinstance(it[1], int | float)])
     meas = _measurement(data, "data", read_options, f_range_hz, exclude_band)
     lm = []
     for i, item in enumerate(loaded):
@@ -495,6 +527,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
         params[name] = {"value": float(med), "ci90": [float(lo), float(hi)], "unit": UNITS[name],
                         "model_spread": [min(vals), max(vals)] if len(vals) > 1 or (vals and not main_in)
                         else None}
+    warns += check_result(params, method=method, sd=sd, mms=mms, bl=bl, deltas=[d for _, d in lm])
+    warns += setup_warnings(meas, None if bx is None else bx[0])
     if fast:
         warns.append({"code": "fast_intervals", "short": "intervals from the fit's covariance (--fast), not "
                       "the posterior", "message": "intervals from the least-squares fit's Gaussian "
@@ -533,7 +567,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                               "values": _point_values(points[r["model"]])}
                              for r in records]}}
     return ThieleSmall(model=main.spec, method=method, parameters=params, inputs=inputs,
-                       warnings=tuple(_dedupe(warns)))
+                       warnings=tuple(_dedupe(warns)), curve=inp.curve)
 
 
 def _point_values(ts: dict) -> dict:

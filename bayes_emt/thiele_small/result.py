@@ -47,6 +47,9 @@ class ThieleSmall:
     inputs : what was given (files, masses, box volume, Sd, ohmmeter reading, air) and how the
         intervals were obtained (``uncertainty``: ``"posterior"`` or ``"laplace"``).
     warnings : ``{"code", "message", "model"?, "band_hz"?}`` records.
+    curve : the fitted free-air impedance curve with its 90 % posterior predictive band and the
+        recording's points (:mod:`bayes_emt.thiele_small.curve`), or ``None``; what the figure of
+        the fit (:func:`bayes_emt.plotting.thiele_small.plot_ts_fit`) is drawn from.
     """
 
     model: str
@@ -54,6 +57,7 @@ class ThieleSmall:
     parameters: dict
     inputs: dict = field(default_factory=dict)
     warnings: tuple = ()
+    curve: dict | None = field(default=None, compare=False, repr=False)
 
     kind: ClassVar[str] = "thiele_small"
 
@@ -114,9 +118,12 @@ class ThieleSmall:
     def to_json_dict(self) -> dict:
         """``{"kind": "thiele_small", "model", "method", "parameters", "inputs", "warnings"}`` (SI,
         strict JSON; ``be.load`` reads it by its kind)."""
-        return strict_json({"kind": self.kind, "model": self.model, "method": self.method,
-                            "parameters": self.parameters, "inputs": self.inputs,
-                            "warnings": [dict(w) for w in self.warnings]})
+        rec = {"kind": self.kind, "model": self.model, "method": self.method,
+               "parameters": self.parameters, "inputs": self.inputs,
+               "warnings": [dict(w) for w in self.warnings]}
+        if self.curve is not None:
+            rec["curve"] = self.curve
+        return strict_json(rec)
 
     @classmethod
     def from_json_dict(cls, rec: dict) -> ThieleSmall:
@@ -149,7 +156,8 @@ def read_thiele_small(source: str | Path | dict) -> ThieleSmall:
             raise DataFormatError(f"{where}: parameter {name!r} is not a T/S entry with value, ci90, unit")
     return ThieleSmall(model=str(source["model"]), method=str(source["method"]),
                        parameters=dict(source["parameters"]), inputs=dict(source.get("inputs", {})),
-                       warnings=tuple(source.get("warnings", ())))
+                       warnings=tuple(source.get("warnings", ())),
+                       curve=source["curve"] if isinstance(source.get("curve"), dict) else None)
 
 
 register_kind(ThieleSmall)

@@ -13,7 +13,8 @@ import math
 from ...models import AUGMENTATIONS, MODEL_NAMES
 
 __all__ = ["add_data_args", "add_model_args", "print_table", "print_warnings", "seed", "int_at_least",
-           "positive_float", "finite_float", "nonnegative_float", "model_from_args", "check_model_matches",
+           "positive_float", "finite_float", "quantity", "nonnegative_float", "model_from_args",
+           "check_model_matches",
            "add_parser", "add_output_args", "note", "detail", "progress_of"]
 
 
@@ -72,11 +73,37 @@ def nonnegative_float(text: str) -> float:
     return val
 
 
+def quantity(dimension: str, *, bare: str | None = None, sign: str = "positive"):
+    """An argparse type for a quantity with an optional unit (:mod:`bayes_emt.units`): ``8.017g``,
+    ``85cm2``, ``20L``, ``10Hz``; a bare number keeps its SI meaning (frequencies: ``bare``, Hz or
+    rad/s). ``sign``: ``"positive"`` (default), ``"nonzero"`` or ``"any"``. The value is returned in
+    SI (frequencies in ``bare``)."""
+    from ...units import UnitError, parse_quantity
+
+    def parse(text: str) -> float:
+        try:
+            val = parse_quantity(text, dimension, bare=bare)
+        except UnitError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        if sign == "positive" and not val > 0:
+            raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
+        if sign == "nonzero" and val == 0:
+            raise argparse.ArgumentTypeError(f"must not be zero, got {text!r}")
+        return val
+
+    parse.__name__ = dimension
+    return parse
+
+
 def add_parser(sub, name: str, *, help: str, description: str | None, examples: str):
     """A sub-command parser whose ``--help`` ends with worked examples (``examples`` lines, each a
-    full command line) and keeps the description's own line breaks."""
+    full command line) and the exit-status table (:mod:`bayes_emt.cli.exitcodes`), and keeps the
+    description's own line breaks."""
+    from ..exitcodes import EPILOG
+
+    lines = "\n".join(f"  {ln.strip()}" for ln in examples.strip().splitlines())
     return sub.add_parser(name, help=help, description=description,
-                          epilog="examples:\n" + "\n".join(f"  {ln}" for ln in examples.strip().splitlines()),
+                          epilog=f"examples:\n{lines}\n\n{EPILOG}",
                           formatter_class=argparse.RawDescriptionHelpFormatter)
 
 
@@ -119,20 +146,28 @@ def add_data_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--magnitude-only", action="store_true",
                    help="drop the recording's phase and fit |Z| alone (a likelihood on log|Z|); "
                         "magnitude-only exports such as Klippel's are read so without it")
-    p.add_argument("--omega-min", type=positive_float, default=None, help="ignore points below (rad/s)")
-    p.add_argument("--omega-max", type=positive_float, default=None, help="ignore points above (rad/s)")
+    p.add_argument("--omega-min", type=quantity("frequency", bare="rad/s"), default=None, metavar="W",
+                   help="ignore points below W (a bare number is rad/s; or give a unit: 10Hz, 62.8rad/s)")
+    p.add_argument("--omega-max", type=quantity("frequency", bare="rad/s"), default=None, metavar="W",
+                   help="ignore points above W (a bare number is rad/s; or give a unit: 2kHz)")
 
 
 def band_hz(text: str) -> tuple[float, float]:
-    """``F1:F2`` (Hz, F1 < F2, both positive) of ``--exclude-band``."""
+    """``F1:F2`` (F1 < F2, both positive) of ``--exclude-band``, in Hz: bare numbers are Hz, or each
+    bound carries a unit (``20Hz:1kHz``, ``125rad/s:6.3krad/s``)."""
+    from ...units import UnitError, parse_quantity
+
     parts = text.split(":")
     try:
         if len(parts) != 2:
             raise ValueError
-        f1, f2 = float(parts[0]), float(parts[1])
+        f1, f2 = (parse_quantity(x, "frequency", bare="Hz") for x in parts)
+    except UnitError as exc:
+        raise argparse.ArgumentTypeError(f"--exclude-band {text!r}: {exc}") from None
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"--exclude-band {text!r}: expected F1:F2 in Hz, e.g. 5200:5600") from None
+            f"--exclude-band {text!r}: expected F1:F2 in Hz (or with units), e.g. 5200:5600 or "
+            "20Hz:1kHz") from None
     if not (math.isfinite(f1) and math.isfinite(f2) and 0 < f1 < f2):
         raise argparse.ArgumentTypeError(f"--exclude-band {text!r}: need 0 < F1 < F2 (Hz)")
     return f1, f2
@@ -142,7 +177,8 @@ def add_exclude_band_arg(p: argparse.ArgumentParser) -> None:
     """``--exclude-band F1:F2`` (Hz, repeatable): points left out of the fit (a narrow feature no
     lumped model explains: cone break-up, a surround dip)."""
     p.add_argument("--exclude-band", type=band_hz, action="append", default=None, metavar="F1:F2",
-                   help="leave out the points between F1 and F2 Hz (repeatable), e.g. a cone break-up "
+                   help="leave out the points between F1 and F2 (Hz, or with units: 5.2kHz:5.6kHz; "
+                        "repeatable), e.g. a cone break-up "
                         "diagnose reported as an unmodelled narrow resonance")
 
 
@@ -197,11 +233,16 @@ def print_warnings(warnings_list, *, indent: str = "") -> None:
 
 
 def re_reading(text: str) -> tuple[float, float]:
-    """``OHM[:SD]`` of ``--re``: an ohmmeter reading [Ω] and its standard deviation (default 1 %)."""
+    """``OHM[:SD]`` of ``--re``: an ohmmeter reading [Ω] and its standard deviation (default 1 %);
+    each may carry a unit (``6.1ohm``, ``5.72:20mohm``)."""
+    from ...units import UnitError, parse_quantity
+
     value, _, sd = text.partition(":")
     try:
-        v = float(value)
-        s = float(sd) if sd else 0.01 * v
+        v = parse_quantity(value, "resistance")
+        s = parse_quantity(sd, "resistance") if sd else 0.01 * v
+    except UnitError as exc:
+        raise argparse.ArgumentTypeError(f"{exc}") from None
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected OHM or OHM:SD (e.g. 5.72 or 5.72:0.02), "
                                          f"got {text!r}") from None

@@ -16,11 +16,11 @@ from ._common import (
     add_parser,
     add_re_option,
     detail,
-    finite_float,
     meter_of,
     model_from_args,
     note,
     print_table,
+    quantity,
 )
 
 EXAMPLES = """\
@@ -35,8 +35,8 @@ def register(sub) -> None:
                    description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
     p.add_argument("base", help="recording without the added mass")
     p.add_argument("loaded", help="recording with the added mass")
-    p.add_argument("--delta-m", type=finite_float, required=True,
-                   help="mass added in LOADED [kg] (negative: removed)")
+    p.add_argument("--delta-m", type=quantity("mass", sign="nonzero"), required=True, metavar="MASS",
+                   help="mass added in LOADED: kg, or with a unit (100g); negative: removed")
     add_model_args(p)
     add_data_args(p)
     add_re_option(p)
@@ -51,6 +51,9 @@ def run(args) -> int:
     from ...io.paramfile import write_json
 
     check_outputs([("--json", args.json)], [("BASE", args.base), ("LOADED", args.loaded)])
+    from ...thiele_small.plausibility import check_inputs
+
+    check_inputs(deltas=[args.delta_m])  # 8.017 meaning grams is refused before any fit
     opts = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity,
             "magnitude_only": args.magnitude_only}
     base = read_measurement(args.base, **opts).select(args.omega_min, args.omega_max)
@@ -82,4 +85,8 @@ def run(args) -> int:
     if args.json:
         write_json(args.json, r.to_json_dict())
         note(args, f"wrote {args.json}")
-    return 0
+    if not r.success:
+        print(f"note: the joint optimiser did not converge ({r.message}): the values are not to be trusted")
+    from ..exitcodes import status
+
+    return status(not r.success)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..exitcodes import EPILOG as EXIT_EPILOG
 from ._common import add_data_args, add_model_args
 
 EPILOG = """\
@@ -28,7 +29,7 @@ examples:
 
 def register(sub) -> None:
     p = sub.add_parser("batch", help="many recordings in parallel on Dask (resumable, summary table)",
-                       description=__doc__, epilog=EPILOG,
+                       description=__doc__, epilog=EPILOG + "\n\n" + EXIT_EPILOG,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("source", metavar="DIR|GLOB",
                    help="a folder (its .zma/.csv/.tsv/.txt/.dat/.s1p files) or a quoted glob pattern")

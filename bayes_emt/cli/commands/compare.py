@@ -121,4 +121,13 @@ def run(args) -> int:
         folder.mkdir(parents=True, exist_ok=True)
         path = save_figure(plot_evidence(cmp), folder / "evidence.png")
         note(args, f"wrote {path}")
-    return 1 if cmp.all_warnings() else 0
+    from ..exitcodes import status
+
+    # 1: a model's evidence is not to be trusted (its chain missed the stopping rule, or every
+    # estimator failed);
+    # warnings alone leave a delivered result (0)
+    def untrusted(m) -> bool:
+        estimates = [v.get("log_evidence") for v in m.by_method.values()]
+        return not m.converged or not any(isinstance(x, int | float) and x == x for x in estimates)
+
+    return status(any(untrusted(m) for m in cmp.models))

@@ -212,6 +212,9 @@ def run(args) -> int:
     if any(s["status"] == "failed" for s in d.steps):
         d.say("a step failed (see the warnings on top of the report): exit code 1")
         return 1
+    if unconverged:
+        d.say("the preferred model's posterior did not converge: exit code 1")
+        return 1
     return 0
 
 

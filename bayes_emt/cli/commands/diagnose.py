@@ -8,7 +8,8 @@ Prints each finding in plain words (band in Hz, Δ log Z in nats, the band's χ�
 parameters that moved) and what stays unexplained; ``--json`` writes the diagnosis record
 (``final_model`` is a spec that fit, sample, added-mass and shunt accept), ``--plot`` the
 residuals before/after with the bands shaded and a Bode overlay.
-Exit status 0, or 1 when the result carries warnings, 2 on a user error.
+Exit status 0 with or without findings and warnings; 1 when the time budget cut the search short or
+the final fit failed; 2 on a user error.
 """
 
 from __future__ import annotations
@@ -27,6 +28,9 @@ from ._common import (
     seed,
 )
 
+#: the figures of --plot DIR (named apart from the report's own residuals.png: nothing is overwritten)
+PLOT_NAMES = ("diagnosis_residuals.png", "diagnosis_bode.png")
+
 EXAMPLES = """\
 bayes-emt diagnose speaker.zma  (start from the model the evidence prefers)
 bayes-emt diagnose speaker.zma --model UD --json diagnosis.json --plot figures/
@@ -38,13 +42,15 @@ bayes-emt diagnose freeair.txt --also added100g.txt:0.100  (check the findings o
 
 
 def also_arg(text: str) -> tuple[str, float | None]:
-    """``FILE[:DELTA_M_KG]`` of ``--also``: the file and the mass added for it [kg] (``None``: the same
-    driver, another drive level or session)."""
+    """``FILE[:DELTA_M]`` of ``--also``: the file and the mass added for it [kg; a unit may be given,
+    ``:100g``] (``None``: the same driver, another drive level or session)."""
+    from ...units import UnitError, parse_quantity
+
     head, sep, tail = text.rpartition(":")
     if sep and head:
         try:
-            dm = float(tail)
-        except ValueError:
+            dm = parse_quantity(tail, "mass")  # kg, or with a unit: added100g.txt:100g
+        except UnitError:
             return text, None
         if not (dm == dm and abs(dm) != float("inf") and dm != 0):
             raise ValueError(f"--also {text}: the added mass after ':' must be a non-zero number of kg")
@@ -64,8 +70,9 @@ def register(sub) -> None:
                    help="how the transducer was mounted (default unknown): free-air, sealed and shaker rule "
                         "out a port; unknown tries a port only when |Z| has two maxima with a minimum "
                         "between them (each maximum >= 10 %% above it, within a factor 10 in frequency)")
-    p.add_argument("--also", action="append", default=[], metavar="FILE[:DELTA_M_KG]",
-                   help="a second recording of the same transducer (with the mass added for it, kg): every "
+    p.add_argument("--also", action="append", default=[], metavar="FILE[:MASS]",
+                   help="a second recording of the same transducer (with the mass added for it: kg, or "
+                        "with a unit, FILE:100g): every "
                         "finding is refitted on it with and without the term; one it does not need "
                         "(delta log Z < 5 nats) is flagged; with a mass the joint added-mass fit is run "
                         "with the start and the final model; the recording is diagnosed too, and a term "
@@ -75,7 +82,8 @@ def register(sub) -> None:
                    help="do not diagnose the --also recordings (only check this diagnosis's findings "
                         "on them)")
     p.add_argument("--json", default=None, metavar="OUT", help="write the diagnosis as JSON here")
-    p.add_argument("--plot", default=None, metavar="DIR", help="write residual and Bode figures here")
+    p.add_argument("--plot", default=None, metavar="DIR",
+                   help=f"write the residual and Bode figures here ({', '.join(PLOT_NAMES)})")
     p.add_argument("--seed", type=seed, default=0,
                    help="seed of the scan's calibration replicates (default 0)")
     p.add_argument("--max-rounds", type=int_at_least(1), default=4,
@@ -107,8 +115,14 @@ def run(args) -> int:
     from ._common import model_from_args
 
     also = [also_arg(a) for a in args.also]
+    from ...thiele_small.plausibility import MAX_MASS_KG
+
+    for f, dm in also:  # a mass meant in grams, given bare (kg)
+        if dm is not None and abs(dm) > MAX_MASS_KG:
+            raise ValueError(f"--also {f}:{dm:g}: {dm:g} kg is heavier than any cone; did you mean "
+                             f"{f}:{dm:g}g?")
     check_outputs([("--json", args.json)], [("DATA", args.data)] + [("--also", f) for f, _ in also],
-                  folders=[("--plot", args.plot, ("residuals.png", "bode.png"))])
+                  folders=[("--plot", args.plot, PLOT_NAMES)])
     meas = read_measurement(
         args.data, freq_unit=args.freq_unit, phase_unit=args.phase_unit, quantity=args.quantity,
         magnitude_only=args.magnitude_only
@@ -191,8 +205,13 @@ def run(args) -> int:
         folder = Path(args.plot)
         folder.mkdir(parents=True, exist_ok=True)
         for name, fig in (
-            ("residuals.png", plot_residuals(d, meas)),
-            ("bode.png", plot_bode_overlay(d, meas)),
+            (PLOT_NAMES[0], plot_residuals(d, meas)),
+            (PLOT_NAMES[1], plot_bode_overlay(d, meas)),
         ):
             print(f"wrote {save_figure(fig, folder / name)}")
-    return 1 if d.warnings else 0
+    # exit 1 only when the result is not to be trusted (a budget cut, a final fit that failed);
+    # findings and warnings alone are a delivered result (exit 0)
+    from ..exitcodes import status
+
+    rms = d.final_fit.rms_rel_residual
+    return status(d.budget_hit or not d.final_fit.success or not (rms == rms and rms != float("inf")))

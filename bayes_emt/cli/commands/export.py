@@ -15,7 +15,7 @@ import json
 from pathlib import Path
 
 from ..paths import check_outputs
-from ._common import add_output_args, add_parser, note
+from ._common import add_output_args, add_parser, note, quantity
 
 EXAMPLES = """\
 bayes-emt export ud_fit.json --data speaker.zma --zma ud_fitted.zma
@@ -40,7 +40,8 @@ def register(sub) -> None:
     p.add_argument("--fit", default=None, metavar="FIT_JSON",
                    help="fit JSON of a model with a semi_inductance term: gives VituixCAD's Ke")
     p.add_argument("--name", default="driver", help="the driver's model name in the VituixCAD row")
-    p.add_argument("--sd", type=float, default=None, metavar="M2", help="Sd [m^2] if the T/S JSON lacks it")
+    p.add_argument("--sd", type=quantity("area"), default=None, metavar="AREA",
+                   help="Sd if the T/S JSON lacks it: m^2, or with a unit (85cm2)")
     add_output_args(p)
     p.set_defaults(func=run)
 

@@ -123,4 +123,6 @@ def run(args) -> int:
         write_json(args.json, {"kind": fit.kind, **fit.to_json_dict(), "procedure": args.procedure,
                                "R0_by_procedure": r0, "phase": "absent" if meas.phase_absent else "measured"})
         note(args, f"wrote {args.json}")
-    return 0
+    from ..exitcodes import status
+
+    return status(not fit.success)

@@ -1,11 +1,13 @@
 """``bayes-emt report RUN_DIR``: rebuild the HTML report from a run folder's saved outputs.
 
-Reads the JSON files, netCDF posterior and PNG figures the demo (or the individual commands) wrote
-into RUN_DIR and renders one self-contained HTML page (figures embedded): warnings on top, the
-data, fits with units, evidence, posterior, shunt designs (nominal and robust) and the
-diagnosis. A section whose outputs are absent says that it was not run. Nothing is recomputed,
-except the posterior's Bode and corner figures, redrawn from posterior.nc when their PNGs are
-missing.
+Reads the JSON files, netCDF posterior and PNG figures the demo or the individual commands wrote
+into RUN_DIR, each JSON file by the kind of result it records whatever its name (fit --json,
+sample --json, ts --json, diagnose --json, compare --json, shunt --json), and renders one
+self-contained HTML page (figures embedded): warnings on top, the Thiele-Small table with the fit
+and its 90 % band, the data, fits with units, evidence, posterior, shunt designs (nominal and
+robust) and the diagnosis. A section whose outputs are absent says that it was not run. Nothing
+is recomputed, except the posterior's Bode and corner figures, redrawn from the folder's netCDF
+posterior when no PNG of them exists.
 """
 
 from __future__ import annotations
@@ -16,13 +18,15 @@ EXAMPLES = """\
 bayes-emt report demo_run  (rebuild demo_run/report.html from what demo --out demo_run saved)
 bayes-emt report demo_run --out /tmp/r.html  (write it elsewhere)
 bayes-emt report demo_run --screenshot shot.png  (and check it renders: a headless Chromium screenshot)
+bayes-emt report results/  (where fit, sample, ts, diagnose and shunt saved their --json and --plot outputs)
 """
 
 
 def register(sub) -> None:
     p = add_parser(sub, "report", help="rebuild the HTML report of a run folder from its saved outputs",
                    description=__doc__, examples=EXAMPLES)
-    p.add_argument("run_dir", metavar="RUN_DIR", help="run folder (as demo --out writes)")
+    p.add_argument("run_dir", metavar="RUN_DIR",
+                   help="a folder of saved results (what demo --out writes, or the commands' outputs)")
     p.add_argument("--out", default=None, metavar="HTML", help="report file (default RUN_DIR/report.html)")
     p.add_argument("--screenshot", default=None, metavar="PNG",
                    help="also render the report in headless Chromium and save a screenshot here")

@@ -23,14 +23,15 @@ from ._common import (
     add_exclude_band_arg,
     add_model_args,
     add_output_args,
+    add_parser,
     add_re_option,
     detail,
-    finite_float,
     int_at_least,
     meter_of,
     model_from_args,
     note,
     print_warnings,
+    quantity,
     seed,
 )
 
@@ -58,9 +59,8 @@ def _nu(text: str) -> float | str:
 
 
 def register(sub) -> None:
-    p = sub.add_parser("sample", help="posterior by emcee with convergence diagnostics (DataTree out)",
-                       description=__doc__, epilog="examples:\n" + EXAMPLES,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_parser(sub, "sample", help="posterior by emcee with convergence diagnostics (DataTree out)",
+                   description=__doc__, examples=EXAMPLES)
     p.add_argument("data", help="measurement file")
     add_model_args(p)
     add_data_args(p)
@@ -85,8 +85,8 @@ def register(sub) -> None:
     p.add_argument("--loaded", default=None, metavar="FILE",
                    help="second recording of an added-mass pair (DATA is then the base run): sample both "
                         "jointly for the physical m, c, k, phi_raw")
-    p.add_argument("--delta-m", type=finite_float, default=None, metavar="KG",
-                   help="mass added in the --loaded recording [kg] (negative: removed)")
+    p.add_argument("--delta-m", type=quantity("mass", sign="nonzero"), default=None, metavar="MASS",
+                   help="mass added in the --loaded recording: kg, or with a unit (100g); negative: removed")
     add_re_option(p)
     p.add_argument("--json", default=None, metavar="OUT", help="write the summary as JSON here")
     p.add_argument("--plot", default=None, metavar="DIR", help="write corner, Bode-band and trace PNGs here")
@@ -111,6 +111,10 @@ def run(args) -> int:
     if args.nu is not None and args.likelihood != "student":
         raise ValueError(f"--nu {args.nu} applies to --likelihood student only (the Gaussian likelihood "
                          "has no degrees of freedom); add --likelihood student or drop --nu")
+    if args.delta_m is not None:  # 8.017 meaning grams is refused before any sampling
+        from ...thiele_small.plausibility import check_inputs
+
+        check_inputs(deltas=[args.delta_m])
     nu = None if args.nu == "sample" else DEFAULT_NU if args.nu is None else args.nu
     if args.loaded is not None and nu is None:
         raise ValueError("--nu sample is not offered with --loaded; give a number of degrees of freedom")
@@ -235,7 +239,8 @@ def _outputs(args, post, warns, out, ckpt, stem, plots) -> int:
     post.save(out)
     note(args, f"wrote {out} (ArviZ DataTree; checkpoint {ckpt})")
     if args.json:
-        write_json(args.json, {**post.to_json_dict(), "warnings": warns})
+        # the kind lets a report find it whatever its name
+        write_json(args.json, {"kind": "posterior_summary", **post.to_json_dict(), "warnings": warns})
         note(args, f"wrote {args.json}")
     if args.plot:
         from ...plotting import save_figure
@@ -249,4 +254,6 @@ def _outputs(args, post, warns, out, ckpt, stem, plots) -> int:
             path = folder / f"posterior_{stem}_{name}.png"
             save_figure(make(post), path, dpi=100)
             note(args, f"wrote {path}")
-    return 0 if post.converged else 1
+    from ..exitcodes import status
+
+    return status(not post.converged)

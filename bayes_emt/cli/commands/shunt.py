@@ -27,6 +27,7 @@ from ._common import (
     int_at_least,
     note,
     positive_float,
+    quantity,
     seed,
 )
 
@@ -75,7 +76,8 @@ def register(sub) -> None:
                    help="sense resistor R_in [ohm] (Table 7: 0.0996)")
     p.add_argument("--k-in", type=positive_float, default=None, help="input gain K_in (Table 7: 99.23)")
     p.add_argument("--k-out", type=positive_float, default=None, help="output gain K_out (Table 7: 0.9846)")
-    p.add_argument("--fs", type=positive_float, default=None, help="DSP sample rate [Hz] (Table 7: 5000)")
+    p.add_argument("--fs", type=quantity("frequency", bare="Hz"), default=None,
+                   help="DSP sample rate [Hz, or with a unit: 5kHz] (default 5000)")
     p.add_argument("--delay", type=int_at_least(0), nargs="?", const=1, default=None, metavar="SAMPLES",
                    help="computation delay in samples (flag alone: 1; default 0)")
     p.add_argument("--plot", default=None, metavar="DIR",
@@ -85,8 +87,9 @@ def register(sub) -> None:
                    help="tolerance [ohm] of a DC resistance measurement of R0: the stability margin is "
                         "compared with it too (besides the fit's standard error, the procedures' R0 and, "
                         "with --evaluate-on or several --posterior, the other models' R0)")
-    p.add_argument("--bandwidth", type=positive_float, default=None, metavar="RAD_S",
-                   help="the shunt realisation's bandwidth [rad/s]: the stability constraint leaves out the "
+    p.add_argument("--bandwidth", type=quantity("frequency", bare="rad/s"), default=None, metavar="W",
+                   help="the shunt realisation's bandwidth [rad/s, or with a unit: 2kHz]: the stability "
+                        "constraint leaves out the "
                         "ideal loop above it (needed with a capacitance across the terminals); default: "
                         "ideal loop")
     add_re_option(p)

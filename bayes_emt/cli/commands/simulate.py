@@ -16,7 +16,7 @@ from ._common import (
     detail,
     int_at_least,
     note,
-    positive_float,
+    quantity,
     seed,
 )
 
@@ -41,8 +41,10 @@ def register(sub) -> None:
     p.add_argument("--noise", type=float, default=0.002,
                    help="relative complex Gaussian noise per real/imag part (default 0.002 = 0.2 %%)")
     p.add_argument("--seed", type=seed, default=0, help="noise seed, a non-negative integer (default 0)")
-    p.add_argument("--omega-min", type=positive_float, default=1e1, help="lowest omega, rad/s (default 10)")
-    p.add_argument("--omega-max", type=positive_float, default=1e5, help="highest omega, rad/s (default 1e5)")
+    p.add_argument("--omega-min", type=quantity("frequency", bare="rad/s"), default=1e1, metavar="W",
+                   help="lowest omega, rad/s, or with a unit: 2Hz (default 10 rad/s)")
+    p.add_argument("--omega-max", type=quantity("frequency", bare="rad/s"), default=1e5, metavar="W",
+                   help="highest omega, rad/s, or with a unit: 20kHz (default 1e5 rad/s)")
     p.add_argument("--points", type=int_at_least(MIN_POINTS, " (the readers, and so fit, refuse fewer)"),
                    default=2000, help=f"log-spaced points, at least {MIN_POINTS} (default 2000)")
     add_output_args(p)

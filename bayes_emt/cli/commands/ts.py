@@ -1,11 +1,15 @@
-"""``bayes-emt ts DATA [--model MODEL] [--loaded FILE --delta-m KG]... [--box FILE --box-volume M3]
-[--sd M2] [--re OHM[:SD]] [--mms KG | --bl TM] [--exclude-band F1:F2]... [--fast] [--json OUT]``:
-Thiele–Small parameters with 90 % intervals and their spread across coil models.
+"""``bayes-emt ts DATA [--model MODEL] [--loaded FILE --delta-m MASS]... [--box FILE --box-volume
+VOLUME] [--sd AREA] [--re OHM[:SD]] [--mms MASS | --bl BL] [--exclude-band F1:F2]... [--fast]
+[--json OUT] [--plot DIR]``: Thiele–Small parameters with 90 % intervals and their spread across
+coil models.
 
 Free air alone gives fs, Re, Le, Qms, Qes, Qts, EBP (and with a known Mms or Bl the rest);
 added-mass recordings (one or more, each with its mass) are fitted in one joint posterior and
 give Bl, Mms, Cms, Kms, Rms; a sealed test box of known volume gives Vas; with Sd also Vas, η0
-and SPL at 2.83 V / 1 m. The library call is :func:`bayes_emt.thiele_small.thiele_small`.
+and SPL at 2.83 V / 1 m. Quantities take a unit (10g, 330cm2, 20L; a bare number is SI), and
+values no driver has are refused naming the option. Exit status 0, 1 when a posterior did not
+meet its stopping rule, 2 on bad input. The library call is
+:func:`bayes_emt.thiele_small.thiele_small`.
 """
 
 from __future__ import annotations
@@ -21,17 +25,20 @@ from ._common import (
     add_re_option,
     meter_of,
     note,
-    positive_float,
     print_warning_lines,
+    quantity,
     seed,
 )
 
+#: the figure ``--plot DIR`` writes (a name no other command uses: figures never overwrite each other)
+PLOT_NAME = "ts_fit.png"
+
 EXAMPLES = """\
 bayes-emt ts free_air.zma --model UD
-bayes-emt ts free.txt --loaded with10g.txt --delta-m 0.010 --loaded with20g.txt --delta-m 0.020 --sd 0.0330
-bayes-emt ts free.zma --box in_box.zma --box-volume 0.020 --sd 0.0330 --re 5.72
+bayes-emt ts free.txt --loaded with10g.txt --delta-m 10g --loaded with20g.txt --delta-m 20g --sd 330cm2
+bayes-emt ts free.zma --box in_box.zma --box-volume 20L --sd 0.0330 --re 5.72ohm
 bayes-emt ts free.zma --model UD+suspension_creep --mms 0.0149 --sd 0.033 --fast --json ts.json
-bayes-emt ts free.zma --exclude-band 5200:5600 --fast
+bayes-emt ts free.zma --exclude-band 5.2kHz:5.6kHz --fast --plot figures/
 """
 
 
@@ -42,19 +49,21 @@ def register(sub) -> None:
     p.add_argument("--model", default="UD", metavar="MODEL", help="model spec (default UD)")
     p.add_argument("--loaded", action="append", default=[], metavar="FILE",
                    help="a recording with an added mass (repeat; each needs its --delta-m, in order)")
-    p.add_argument("--delta-m", action="append", type=float, default=[], metavar="KG",
-                   help="mass added for the matching --loaded [kg]")
+    p.add_argument("--delta-m", action="append", type=quantity("mass", sign="nonzero"), default=[],
+                   metavar="MASS", help="mass added for the matching --loaded: kg, or with a unit (8.017g)")
     p.add_argument("--box", default=None, metavar="FILE", help="a recording in a sealed test box")
-    p.add_argument("--box-volume", type=positive_float, default=None, metavar="M3",
-                   help="the test box's net volume [m^3]")
-    p.add_argument("--sd", type=positive_float, default=None, metavar="M2",
-                   help="effective cone area Sd [m^2]")
+    p.add_argument("--box-volume", type=quantity("volume"), default=None, metavar="VOLUME",
+                   help="the test box's net volume: m^3, or with a unit (20L, 0.7ft3)")
+    p.add_argument("--sd", type=quantity("area"), default=None, metavar="AREA",
+                   help="effective cone area Sd: m^2, or with a unit (85cm2)")
     add_re_option(p)
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--mms", type=positive_float, default=None, metavar="KG", help="known moving mass [kg]")
-    g.add_argument("--bl", type=positive_float, default=None, metavar="TM", help="known force factor [T m]")
-    p.add_argument("--air-density", type=positive_float, default=1.18, help="kg/m^3 (default 1.18)")
-    p.add_argument("--sound-speed", type=positive_float, default=343.0, help="m/s (default 343)")
+    g.add_argument("--mms", type=quantity("mass"), default=None, metavar="MASS",
+                   help="known moving mass: kg, or with a unit (14.9g)")
+    g.add_argument("--bl", type=quantity("force_factor"), default=None, metavar="BL",
+                   help="known force factor [T m]")
+    p.add_argument("--air-density", type=quantity("density"), default=1.18, help="kg/m^3 (default 1.18)")
+    p.add_argument("--sound-speed", type=quantity("speed"), default=343.0, help="m/s (default 343)")
     p.add_argument("--spread-models", default=None, metavar="MODELS",
                    help="comma-separated candidate models for the model spread (default II,III,UD with the "
                         "model's physics terms; 'none' for none)")
@@ -64,6 +73,9 @@ def register(sub) -> None:
     add_data_args(p)
     add_exclude_band_arg(p)
     p.add_argument("--json", default=None, help="write the result as JSON here")
+    p.add_argument("--plot", default=None, metavar="DIR",
+                   help=f"write {PLOT_NAME} here: |Z| and phase with the fitted curve, its 90 %% posterior "
+                        "predictive band and the file's own fit (if it has one), and the residual")
     add_output_args(p)
     p.set_defaults(func=run)
 
@@ -79,7 +91,7 @@ def run(args) -> int:
     inputs = [("DATA", args.data)] + [("--loaded", f) for f in args.loaded]
     if args.box:
         inputs.append(("--box", args.box))
-    check_outputs([("--json", args.json)], inputs)
+    check_outputs([("--json", args.json)], inputs, folders=[("--plot", args.plot, (PLOT_NAME,))])
     spread = None
     if args.spread_models is not None:
         spread = [] if args.spread_models.strip().lower() == "none" else \
@@ -107,4 +119,14 @@ def run(args) -> int:
     if args.json:
         r.save(args.json)
         note(args, f"wrote {args.json}")
-    return 0
+    if args.plot:
+        from pathlib import Path
+
+        from ...plotting import save_figure
+        from ...plotting.thiele_small import plot_ts_fit
+
+        Path(args.plot).mkdir(parents=True, exist_ok=True)
+        note(args, f"wrote {save_figure(plot_ts_fit(r), Path(args.plot) / PLOT_NAME, dpi=110)}")
+    from ..exitcodes import status
+
+    return status(any(w.get("code") == "not_converged" for w in r.warnings))
