@@ -72,6 +72,7 @@ from ..errors import DataFormatError
 from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
+from .references import bench_comparison, disagreements, model_free_record
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
@@ -526,8 +527,13 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                               "probability": r["probability"], "included": r["included"],
                               "values": _point_values(points[r["model"]])}
                              for r in records]}}
+    # the reference columns: Small's model-free values off the curve, the bench's own fit (references.py)
+    mf = model_free_record(meas, params, main.label, re_meter=re_t, loaded=lm, seed=int(seed),
+                           use_phase=meas.meta.get("phase") != "absent")
+    warns += disagreements(params, mf)
     return ThieleSmall(model=main.spec, method=method, parameters=params, inputs=inputs,
-                       warnings=tuple(_dedupe(warns)))
+                       warnings=tuple(_dedupe(warns)), model_free=mf,
+                       bench_fit=bench_comparison(params, meas.meta.get("bench_fit")))
 
 
 def _point_values(ts: dict) -> dict:
