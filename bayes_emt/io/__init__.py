@@ -31,10 +31,19 @@ from .._atomic import atomic_path
 from ..errors import DataFormatError
 from ..measurement import Measurement
 from ._rows import read_text
+from .dats import looks_like_dats, read_dats
+from .klippel import looks_like_klippel, read_klippel
+from .lim import looks_like_lim, read_lim
+from .rew import looks_like_rew, read_rew
 from .table import NATIVE_HEADER, NATIVE_MARKER, read_table
 from .touchstone import looks_like_touchstone, read_touchstone
 
 __all__ = ["read_measurement", "write_measurement"]
+
+#: bench exports recognised from their own text, tried in order: (name, is-this-mine, reader)
+_BENCHES = (("DATS", looks_like_dats, read_dats, ()),
+            ("Klippel LPM", looks_like_klippel, read_klippel, ()),
+            ("REW", looks_like_rew, read_rew, ("quantity",)))
 
 FreqUnit = Literal["hz", "khz", "mhz", "ghz", "rad/s"]
 PhaseUnit = Literal["deg", "rad"]
@@ -93,7 +102,15 @@ def read_measurement(path: str | Path, *, freq_unit: FreqUnit | None = None,
     if re.fullmatch(r"\.s\d+p", suffix) and suffix != ".s1p":
         raise DataFormatError(f"{path}: a {suffix[2:-1]}-port Touchstone file; a transducer's "
                               "terminals are one port (.s1p)")
+    if looks_like_lim(path):
+        _refuse_options(path, "LIMP .lim", options)
+        return read_lim(path)
     text = read_text(path)
+    bench = _bench_reader(text)
+    if bench is not None:
+        name, read, allowed = bench
+        _refuse_options(path, name, {k: v for k, v in options.items() if k not in allowed})
+        return read(path, text, **{k: options[k] for k in allowed})
     ts_line = looks_like_touchstone(text)
     if suffix in (".s1p", ".ts") or ts_line is not None:
         given = [f"--{k.replace('_', '-')}" for k, v in options.items() if v is not None]
@@ -106,6 +123,22 @@ def read_measurement(path: str | Path, *, freq_unit: FreqUnit | None = None,
             meas = meas.with_meta(notices=(*meas.meta["notices"], note))
         return meas
     return read_table(path, text, options, is_zma=suffix == ".zma")
+
+
+def _bench_reader(text: str):
+    """``(bench name, reader, options it takes)`` of the first bench format that recognises the
+    file, else ``None``."""
+    for name, looks, read, allowed in _BENCHES:
+        if looks(text):
+            return name, read, allowed
+    return None
+
+
+def _refuse_options(path: Path, bench: str, options: dict) -> None:
+    given = [f"--{k.replace('_', '-')}" for k, v in options.items() if v is not None]
+    if given:
+        raise DataFormatError(f"{path}: a {bench} export states its own units (Hz, ohm, deg); "
+                              f"drop {', '.join(given)}")
 
 
 def write_measurement(meas: Measurement, path: str | Path) -> Path:

@@ -32,6 +32,7 @@ from ._rows import (
     uses_decimal_comma,
 )
 from .header import Layout, freq_scale, parse_header
+from .resolution import resolution_band
 
 __all__ = ["read_table", "NATIVE_HEADER", "NATIVE_MARKER"]
 
@@ -113,6 +114,9 @@ _SPL = re.compile(r"(?<![a-z])(spl|db\s*spl|dbspl|sound[\s_-]*pressure|db\s*\(?\
                   r"pa/v|db/v|db\s*re\s*20)", re.IGNORECASE)
 
 
+_PARAM_LINE = re.compile(r"^[*#!%\s]*[a-z][\w()]*\s*(?:=\s*|\s+)[-+]?\d", re.IGNORECASE)
+
+
 def _refuse_sound_pressure(path: Path, comments: list[str], header: str | None, header_line) -> None:
     """An SPL / frequency-response export (``.frd``, or a header or comment naming SPL or sound
     pressure) is refused as such: it holds the acoustic output, not the electrical impedance."""
@@ -122,7 +126,8 @@ def _refuse_sound_pressure(path: Path, comments: list[str], header: str | None, 
     elif header is not None and _SPL.search(header):
         where = f"{path}:{header_line}: header {header!r}"
     else:
-        hit = next((c for c in comments if _SPL.search(c)), None)
+        # a parameter line ('* SPL= 0 1W/1m', '% dBSPL 88') of a bench's fit block names no column
+        hit = next((c for c in comments if _SPL.search(c) and not _PARAM_LINE.match(c)), None)
         if hit is not None:
             where = f"{path}: comment {hit[:60]!r}"
     if where is not None:
@@ -184,6 +189,8 @@ def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measure
     _check_thousands_separator(arr[:, 0], body, delim, path)
     arr, linenos = check_rows(arr, linenos, path, notices=notices,
                               magnitude_col=lay.cols[0] if lay.rep == "magphase" else None)
+    to_hz = 1 / (2 * math.pi) if lay.freq_unit == "rad/s" else freq_scale(lay.freq_unit)
+    repeated = _note_resolution_rows(arr, linenos, path, notices, to_hz)
     a, b = arr[:, lay.cols[0]] * (lay.scale * lay.signs[0]), arr[:, lay.cols[1]] * lay.signs[1]
     if min(lay.signs) < 0:
         notices.append("values of the column(s) named with a leading minus were negated")
@@ -214,13 +221,33 @@ def read_table(path: Path, text: str, options: dict, *, is_zma: bool) -> Measure
     meta = {"source": str(path), "format": fmt, "freq_unit": lay.freq_unit,
             "phase_unit": lay.phase_unit if lay.rep == "magphase" else None,
             "quantity": lay.quantity, "representation": lay.rep, "units_from": dict(lay.units_from),
-            "header": header, "n_header_lines": body[0][0] - 1, **_written_meta(comments)}
+            "header": header, "n_header_lines": body[0][0] - 1, **_written_meta(comments),
+            **({"repeated_band_hz": repeated} if repeated else {})}
     if lay.scale != 1.0:
         notices.append(f"values scaled by {lay.scale:g} to {'ohm' if lay.quantity == 'Z' else 'S'} "
                        "as the header's unit says")
     Y = 1.0 / val if lay.quantity == "Z" else val
     _check_passive(Y, linenos, path, notices)
     return finish(omega, Y, linenos, path, meta, notices, weights)
+
+
+def _note_resolution_rows(arr: np.ndarray, linenos: list[int], path: Path, notices: list[str],
+                          to_hz: float) -> list[float] | None:
+    """Name the low band whose rows repeat one another (:mod:`.resolution`) in one warning: in a
+    plain table nothing says which analyser wrote it, so the rows are kept (the bench readers,
+    which know, drop them) and the warning says how to leave them out. Returns the band [Hz]."""
+    order = np.argsort(arr[:, 0], kind="stable")
+    s = arr[order]
+    k = resolution_band(s[:, 0], s[:, 1], s[:, 2])
+    if not k:
+        return None
+    f_hz = s[:, 0] * to_hz
+    msg = (f"{path}: rows {f_hz[0]:.4g}-{f_hz[k - 1]:.4g} Hz repeat the same values in runs, as a bench "
+           "writes below its analyser's resolution (copies, not measurements); they are kept: pass "
+           f"--omega-min {2 * math.pi * f_hz[k]:.4g} (rad/s, {f_hz[k]:.4g} Hz) to leave them out")
+    notices.append(msg)
+    warnings.warn(msg, UserWarning, stacklevel=4)
+    return [float(f_hz[0]), float(f_hz[k - 1])]
 
 
 def _check_thousands_separator(freq: np.ndarray, body: list[tuple[int, str]], delim, path: Path) -> None:
