@@ -167,7 +167,10 @@ def test_model_free_disagreement_is_one_warning():
                          "fs": {"value": 40.5, "ci90": [40.2, 40.7]}}}
     w = disagreements(params, mf)
     assert [x["code"] for x in w] == ["model_free_disagrees"]
-    assert w[0]["short"].startswith("Qms: model-free 3.5 and the model's 3 differ by +16.7 %")
+    assert w[0]["short"].startswith("model-free Qms 3.5 and the model's 3 differ by +16.7 %")
+    from bayes_emt._warnlines import group_warnings
+
+    assert group_warnings(w)[0]["sources"] == []  # no "Qms:" prefix read as a model name
 
 
 def _dats(path: Path):
@@ -200,3 +203,31 @@ def test_dats_files_model_free_within_3_percent_of_dats(name):
     r = model_free_ts(meas, head["Re"], re_source="DATS R(e)")
     assert r["fs"] == pytest.approx(head["fs"], rel=0.03)
     assert r["Qms"] == pytest.approx(head["Qms"], rel=0.03)
+
+
+def test_cli_ts_on_a_dats_file_shows_the_bench_column(tmp_path):
+    """End to end (the DATS reader puts the header's fit in meta['bench_fit']): the terminal table
+    and the JSON carry DATS's values beside ours and the model-free column."""
+    path = REALDATA / "sb_SB26STAC-C000-4_dats_freeair.txt"
+    if not path.exists():
+        pytest.skip("realdata absent")
+    from bayes_emt.io import read_measurement
+
+    try:
+        if "bench_fit" not in read_measurement(path).meta:
+            pytest.skip("this package's reader does not keep the bench's fit")
+    except Exception:  # noqa: BLE001 - a package without the DATS reader
+        pytest.skip("no DATS reader")
+    import subprocess
+    import sys
+
+    out = tmp_path / "ts.json"
+    cmd = [sys.executable, "-m", "bayes_emt.cli", "ts", str(path), "--fast", "--spread-models", "none",
+           "--json", str(out)]
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    head = p.stdout.splitlines()[1]
+    assert "DATS" in head and "model-free (90 %)" in head
+    rec = json.loads(out.read_text())
+    assert rec["bench_fit"]["values"]["fs"]["bench"] == pytest.approx(658.1)
+    assert rec["model_free"]["parameters"]["fs"]["value"] == pytest.approx(658.1, rel=0.03)

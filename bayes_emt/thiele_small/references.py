@@ -91,7 +91,7 @@ def disagreements(parameters: dict, model_free: dict | None) -> list[dict]:
             unit, f = DISPLAY[name]
             u = f" {unit}" if unit else ""
             diff = 100.0 * (q["value"] - p["value"]) / p["value"]
-            short = (f"{name}: model-free {q['value'] * f:.4g}{u} and the model's {p['value'] * f:.4g}{u} "
+            short = (f"model-free {name} {q['value'] * f:.4g}{u} and the model's {p['value'] * f:.4g}{u} "
                      "differ by "
                      f"{diff:+.1f} %, beyond both 90 % intervals")
             out.append({"code": "model_free_disagrees", "short": short,
