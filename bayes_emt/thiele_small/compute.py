@@ -72,7 +72,7 @@ from ..errors import DataFormatError
 from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
-from .references import bench_comparison, disagreements, model_free_record
+from .references import bench_comparison, bench_model_free_notes, disagreements, model_free_record
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
@@ -531,6 +531,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
     mf = model_free_record(meas, params, main.label, re_meter=re_t, loaded=lm, seed=int(seed),
                            use_phase=meas.meta.get("phase") != "absent")
     warns += disagreements(params, mf)
+    warns += bench_model_free_notes(meas, mf, meas.meta.get("bench_fit"), seed=int(seed),
+                                    use_phase=meas.meta.get("phase") != "absent")
     return ThieleSmall(model=main.spec, method=method, parameters=params, inputs=inputs,
                        warnings=tuple(_dedupe(warns)), model_free=mf,
                        bench_fit=bench_comparison(params, meas.meta.get("bench_fit")))

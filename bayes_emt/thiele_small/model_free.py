@@ -208,6 +208,28 @@ def _small(f, mag, phase, re: float, cubic: bool, where: str) -> dict:
             "Qts": qms * qes / (qms + qes)}
 
 
+def split_peak(f, mag, f1: float, f2: float, noise: float) -> list[float]:
+    """Frequencies [Hz] of the local maxima of |Z| between f1 and f2 that stand out of the dip
+    beside them by more than 2 % and by more than 5 noise levels (``noise``: relative): more than one
+    means the resonance peak is split (a rocking mode, a surround resonance, a glitch in the sweep),
+    and the method's single-peak picture is only approximate there."""
+    f, mag = np.asarray(f, float), np.asarray(mag, float)
+    band = np.flatnonzero((f >= f1) & (f <= f2))
+    if band.size < 3:
+        return []
+    x = mag[band]
+    tops = [i for i in range(1, x.size - 1) if x[i] > x[i - 1] and x[i] >= x[i + 1]]
+    thr = max(0.02, 5 * noise)
+    keep = []
+    for j, i in enumerate(tops):
+        lo = tops[j - 1] if j else 0
+        hi = tops[j + 1] if j + 1 < len(tops) else x.size - 1
+        dip = max(x[lo:i + 1].min(), x[i:hi + 1].min())  # prominence: against the higher neighbouring dip
+        if x[i] / dip - 1 > thr:
+            keep.append(float(f[band[i]]))
+    return keep if len(keep) > 1 else []
+
+
 def _curve(meas: Measurement, use_phase: bool):
     f = np.asarray(meas.f_hz, float)
     Z = np.asarray(meas.Z, complex)
@@ -292,7 +314,14 @@ def model_free_ts(meas: Measurement, re: float | tuple[float, float], *, re_sour
     for k, v0 in point.items():
         lo, hi = np.quantile(np.asarray(draws[k]), [0.05, 0.95])
         params[k] = {"value": float(v0), "ci90": [float(lo), float(hi)], "unit": UNITS_MF[k]}
-    inputs = {"method": MODEL_FREE_METHOD, "re_ohm": re_v, "re_sd_ohm": re_sd,
+    f0, mag0, _, noise0, _ = data[0]
+    notes = []
+    split = split_peak(f0, mag0, point["f1"], point["f2"], noise0)
+    if split:
+        notes.append("split resonance peak: |Z| has maxima at " + ", ".join(f"{x:.4g}" for x in split)
+                     + " Hz between f1 and f2 (a rocking mode, a surround resonance or a glitch in the "
+                     "sweep): Small's single-peak values are approximate here")
+    inputs = {"method": MODEL_FREE_METHOD, "notes": notes, "re_ohm": re_v, "re_sd_ohm": re_sd,
               "phase_used": bool(use_phase and data[0][2] is not None),
               "noise_log_abs_z": data[0][3], "noise_phase_rad": data[0][4], "n_draws": int(n_draws),
               "failed_draws": int(failed), "seed": int(seed), "source": meas.source,

@@ -20,7 +20,11 @@ import math
 
 from .relations import DISPLAY, UNITS
 
-__all__ = ["bench_comparison", "model_free_record", "disagreements", "COMPARED_MODEL_FREE"]
+__all__ = ["bench_comparison", "model_free_record", "disagreements", "bench_model_free_notes",
+           "COMPARED_MODEL_FREE", "BENCH_MODEL_FREE_TOLERANCE"]
+
+#: a bench's fs or Qms further than this (relative) from the curve's model-free value gets a line
+BENCH_MODEL_FREE_TOLERANCE = 0.03
 
 #: the model-free quantities compared with the model's (the others, Zmax, f1, f2, are shown only)
 COMPARED_MODEL_FREE = ("fs", "Qms", "Qes", "Qts", "Mms", "Cms", "Bl")
@@ -98,4 +102,41 @@ def disagreements(parameters: dict, model_free: dict | None) -> list[dict]:
                         "message": short + ": information, not an error (creep or a frequency-dependent "
                         "suspension widens the peak, a lossy coil moves the phase zero, a box or baffle "
                         "adds stiffness; Small's method assumes a plain mass-spring-damper)"})
+    return out
+
+
+def bench_model_free_notes(meas, model_free: dict | None, bench_fit: dict | None, *, use_phase: bool = True,
+                           seed: int = 0) -> list[dict]:
+    """One ``bench_model_free_differ`` line for each of fs and Qms where the bench's value is more
+    than :data:`BENCH_MODEL_FREE_TOLERANCE` from Small's value off the same curve, saying what
+    explains it: the curve read with the bench's own Re (Qms depends on Re through r0), a split
+    peak, and otherwise the bench's model fit (its fs and Qms are its model's, not the peak's)."""
+    from .model_free import ModelFreeUndefined, model_free_ts
+
+    if not model_free or "parameters" not in model_free or not bench_fit:
+        return []
+    vals = bench_fit.get("values") or {}
+    name_b = str(bench_fit.get("bench", "the bench"))
+    out = []
+    for name in ("fs", "Qms"):
+        b, q = vals.get(name), model_free["parameters"].get(name)
+        if not b or q is None or abs(q["value"] / b - 1) <= BENCH_MODEL_FREE_TOLERANCE:
+            continue
+        why = []
+        re_b = vals.get("Re")
+        if name == "Qms" and re_b:
+            try:
+                alt = model_free_ts(meas, float(re_b), re_source=f"{name_b} Re", n_draws=20, seed=seed,
+                                    use_phase=use_phase)["Qms"]
+                why.append(f"with {name_b}'s own Re {float(re_b):.4g} ohm the curve gives {alt:.4g} "
+                           f"({100 * (b / alt - 1):+.1f} %)")
+            except (ModelFreeUndefined, ValueError):
+                pass
+        why += [n for n in model_free.get("inputs", {}).get("notes", []) if n.startswith("split")]
+        if not why or name == "fs":
+            what = "phase zero" if name == "fs" else "peak width"
+            why.append(f"{name_b}'s {name} is its model fit's, not the {what} of the curve")
+        short = (f"{name_b}'s {name} {b:.4g} is {100 * (b / q['value'] - 1):+.1f} % from the curve's "
+                 f"model-free {q['value']:.4g}: " + "; ".join(why))
+        out.append({"code": "bench_model_free_differ", "short": short, "message": short})
     return out

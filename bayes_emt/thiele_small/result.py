@@ -145,6 +145,7 @@ class ThieleSmall:
         mf = self.model_free
         if mf and "parameters" in mf:
             out.append(f"model-free: Small's method on the curve, Re from the {mf['re_source']}")
+            out += [f"model-free: {n}" for n in mf.get("inputs", {}).get("notes", [])]
         elif mf and "refused" in mf:
             out.append(f"model-free: not available ({mf['refused']})")
         if self.bench_fit:
