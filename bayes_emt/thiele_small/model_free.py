@@ -53,9 +53,11 @@ from ..measurement import Measurement
 __all__ = ["ModelFree", "ModelFreeUndefined", "model_free_ts", "resonance", "MODEL_FREE_METHOD",
            "SECOND_PEAK_FRACTION"]
 
-#: a second + to − phase crossing whose height above Re is at least this fraction of the main
+#: a second + to − phase crossing whose |Z| prominence is at least this fraction of the main
 #: peak's makes the curve a two-peak curve (vented box) on which Small's method is undefined
 SECOND_PEAK_FRACTION = 0.2
+#: a second peak counts within this factor of the main peak's frequency (either side)
+SECOND_PEAK_SPAN = 5.0
 #: the |Z| peak's vertex is fitted to the points within this fraction of the grid maximum
 PEAK_TOP = 0.05
 
@@ -129,13 +131,39 @@ def _crossing(x: np.ndarray, y: np.ndarray, level: float, i0: int, step: int, cu
     return float("nan")
 
 
-def _peaks(lf: np.ndarray, mag: np.ndarray, phase: np.ndarray | None) -> list[int]:
-    """Grid indices of resonance peaks: the larger-|Z| end of every + to − phase crossing (or,
-    without phase, every local maximum of |Z|)."""
+def _peaks(lf: np.ndarray, mag: np.ndarray, phase: np.ndarray | None) -> list[tuple[int, int | None]]:
+    """``(grid index, crossing index)`` of every resonance candidate: the larger-|Z| end of each + to −
+    phase crossing (and the crossing's left index), or, without phase, each local maximum of |Z|."""
     if phase is not None:
         idx = np.flatnonzero((phase[:-1] > 0) & (phase[1:] <= 0))
-        return [int(i if mag[i] >= mag[i + 1] else i + 1) for i in idx]
-    return [int(i) for i in np.flatnonzero((mag[1:-1] > mag[:-2]) & (mag[1:-1] >= mag[2:])) + 1]
+        return [(int(i if mag[i] >= mag[i + 1] else i + 1), int(i)) for i in idx]
+    return [(int(i), None) for i in np.flatnonzero((mag[1:-1] > mag[:-2]) & (mag[1:-1] >= mag[2:])) + 1]
+
+
+def _prominence(mag: np.ndarray, k: int) -> float:
+    """Topographic prominence of |Z| at ``k`` [ohm]: its height above the higher of the two lowest
+    points between it and the nearest higher point on each side (or the band's end). A point on the
+    coil's inductive rise has none; each of a vented box's two peaks has its own."""
+    left = np.flatnonzero(mag[:k] > mag[k])
+    right = np.flatnonzero(mag[k + 1:] > mag[k])
+    lo = int(left[-1]) if left.size else 0
+    hi = k + 1 + int(right[0]) if right.size else mag.size - 1
+    return float(mag[k] - max(mag[lo:k + 1].min(), mag[k:hi + 1].min()))
+
+
+def _clusters(mag: np.ndarray, cands: list[tuple[int, int | None]], thr: float) -> list[list]:
+    """Candidates grouped into peaks: neighbours belong to one peak unless |Z| dips between them by
+    more than ``thr`` (relative) below the lower of the two (noise makes several crossings on one
+    peak of a dense grid; a vented box's two peaks have a deep dip between them)."""
+    groups: list[list] = []
+    for k, c in sorted(cands):
+        if groups:
+            k0 = groups[-1][-1][0]
+            if mag[k0:k + 1].min() >= (1 - thr) * min(mag[k0], mag[k]):
+                groups[-1].append((k, c))
+                continue
+        groups.append([(k, c)])
+    return groups
 
 
 def _vertex(lf: np.ndarray, mag: np.ndarray, k: int) -> tuple[float, float]:
@@ -159,29 +187,36 @@ def _vertex(lf: np.ndarray, mag: np.ndarray, k: int) -> tuple[float, float]:
     return float(lf[k] + xv), float(c0 + c1 * xv + c2 * xv * xv)
 
 
-def resonance(f_hz, abs_z, phase_rad=None, *, where: str = "curve") -> dict:
+def resonance(f_hz, abs_z, phase_rad=None, *, noise: float = 0.0, where: str = "curve") -> dict:
     """fs [Hz] (phase zero, else |Z| peak), Zmax [ohm] and the grid index of the single resonance
-    peak of one curve; raises :class:`ModelFreeUndefined` for no peak or two comparable peaks."""
+    peak of one curve; raises :class:`ModelFreeUndefined` for no peak or two comparable peaks.
+    ``noise``: the relative noise of |Z| (candidates closer than max(2 %, 5 noise) are one peak)."""
     f = np.asarray(f_hz, float)
     mag = np.asarray(abs_z, float)
     ph = None if phase_rad is None else np.asarray(phase_rad, float)
     lf = np.log(f)
-    floor = float(np.min(mag))
-    cands = [k for k in _peaks(lf, mag, ph) if 0 < k < f.size - 1]
+    cands = [(k, c) for k, c in _peaks(lf, mag, ph) if 0 < k < f.size - 1]
     if not cands:
         raise ModelFreeUndefined(f"{where}: no resonance peak in {f[0]:.4g}-{f[-1]:.4g} Hz (no + to - phase "
                                  "crossing with |Z| above its minimum): Small's method needs the peak inside "
                                  "the band")
-    heights = np.array([mag[k] - floor for k in cands])
-    main = cands[int(np.argmax(heights))]
-    big = [k for k, h in zip(cands, heights, strict=True) if h >= SECOND_PEAK_FRACTION * heights.max()]
+    groups = _clusters(mag, cands, max(0.02, 5 * noise))
+    heights = np.array([_prominence(mag, max((k for k, _ in g), key=lambda k: mag[k])) for g in groups])
+    main_g = groups[int(np.argmax(heights))]
+    f_main = f[max((k for k, _ in main_g), key=lambda k: mag[k])]
+    # a second peak within a factor SECOND_PEAK_SPAN of the main one (a vented box, a passive
+    # radiator); a bump far above it (cone break-up, noise on a coil's rise) is not one
+    big = [g for g, h in zip(groups, heights, strict=True) if h >= SECOND_PEAK_FRACTION * heights.max()
+           and 1 / SECOND_PEAK_SPAN <= f[g[0][0]] / f_main <= SECOND_PEAK_SPAN]
     if len(big) > 1:
-        fl = ", ".join(f"{f[k]:.4g}" for k in big)
+        fl = ", ".join(f"{f[max(g, key=lambda kc: mag[kc[0]])[0]]:.4g}" for g in big)
         raise ModelFreeUndefined(f"{where}: {len(big)} resonance peaks (at {fl} Hz): a vented box, passive "
                                  "radiator or second resonance; Small's single-peak method is undefined here")
+    main = max((k for k, _ in main_g), key=lambda k: mag[k])
     lv, zmax = _vertex(lf, mag, main)
     if ph is not None:
-        i = main if ph[main] > 0 else main - 1
+        # the phase zero of this peak nearest its |Z| vertex (noise can add crossings on a dense grid)
+        i = min((c for _, c in main_g), key=lambda c: abs(lf[c] - lv))
         t = ph[i] / (ph[i] - ph[i + 1])
         fs = float(math.exp(lf[i] + t * (lf[i + 1] - lf[i])))
     else:
@@ -189,8 +224,8 @@ def resonance(f_hz, abs_z, phase_rad=None, *, where: str = "curve") -> dict:
     return {"fs": fs, "Zmax": max(zmax, float(mag[main])), "index": main}
 
 
-def _small(f, mag, phase, re: float, cubic: bool, where: str) -> dict:
-    r = resonance(f, mag, phase, where=where)
+def _small(f, mag, phase, re: float, cubic: bool, where: str, noise: float = 0.0) -> dict:
+    r = resonance(f, mag, phase, noise=noise, where=where)
     fs, zmax, k = r["fs"], r["Zmax"], r["index"]
     if not zmax > re:
         raise ModelFreeUndefined(f"{where}: the peak |Z| {zmax:.4g} ohm is not above Re {re:.4g} ohm")
@@ -271,14 +306,15 @@ def model_free_ts(meas: Measurement, re: float | tuple[float, float], *, re_sour
         lf = np.log(f)
         data.append((f, mag, ph, _noise(np.log(mag), lf), 0.0 if ph is None else _noise(ph, lf)))
 
-    def evaluate(curves_xy, re_i, cubic, by_phase=True):
+    def evaluate(curves_xy, re_i, cubic, by_phase=True, inflate=1.0):
+        # inflate: a resampled curve carries its own noise plus the added draw (sqrt 2 of it)
         curves_xy = [(f, m, p if by_phase else None) for f, m, p in curves_xy]
         (f, mag, ph), rest = curves_xy[0], curves_xy[1:]
-        out = _small(f, mag, ph, re_i, cubic, meas.source)
+        out = _small(f, mag, ph, re_i, cubic, meas.source, noise=inflate * data[0][3])
         if rest:
             mms = []
-            for (fl, ml, pl), (mrec, dm) in zip(rest, curves[1:], strict=True):
-                fs_l = resonance(fl, ml, pl, where=mrec.source)["fs"]
+            for (fl, ml, pl), (mrec, dm), d in zip(rest, curves[1:], data[1:], strict=True):
+                fs_l = resonance(fl, ml, pl, noise=inflate * d[3], where=mrec.source)["fs"]
                 ratio = (out["fs"] / fs_l) ** 2 - 1
                 if ratio <= 0:
                     raise ModelFreeUndefined(f"{mrec.source}: its resonance {fs_l:.4g} Hz is not below free "
@@ -292,7 +328,7 @@ def model_free_ts(meas: Measurement, re: float | tuple[float, float], *, re_sour
     point = evaluate([(f, mag, ph) for f, mag, ph, _, _ in data], re_v, False)
     rng = np.random.default_rng(seed)
     draws: dict[str, list[float]] = {k: [] for k in point}
-    failed = 0
+    failed, why = 0, ""
     for _ in range(n_draws):
         xy = []
         for f, mag, ph, s_m, s_p in data:
@@ -301,15 +337,17 @@ def model_free_ts(meas: Measurement, re: float | tuple[float, float], *, re_sour
             xy.append((f, m2, p2))
         re_i = re_v + re_sd * rng.standard_normal()
         try:
-            v = evaluate(xy, re_i, bool(rng.integers(2)), bool(rng.integers(2)))
-        except (ModelFreeUndefined, ValueError, ZeroDivisionError):
+            v = evaluate(xy, re_i, bool(rng.integers(2)), bool(rng.integers(2)), math.sqrt(2.0))
+        except (ModelFreeUndefined, ValueError, ZeroDivisionError) as exc:
             failed += 1
+            why = why or str(exc).split(": ", 1)[-1]
             continue
         for k in draws:
             draws[k].append(v[k])
     if len(draws["fs"]) < n_draws // 2:
         raise ModelFreeUndefined(f"{meas.source}: Small's method fails on {failed} of {n_draws} resamplings "
-                                 "of the curve within its noise: the peak is not resolved above the noise")
+                                 f"of the curve within its noise (e.g. {why}): the peak is not resolved "
+                                 "above the noise; narrow the band")
     params = {}
     for k, v0 in point.items():
         lo, hi = np.quantile(np.asarray(draws[k]), [0.05, 0.95])
