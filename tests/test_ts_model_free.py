@@ -161,6 +161,8 @@ def test_ts_shows_bench_fit_and_model_free_columns(tmp_path):
     qrow = next(ln for ln in text.splitlines() if ln.startswith("Qms"))
     assert re.search(re.escape(f"{qms['difference_pct']:+.1f} %") + r"\s+no", qrow)
     assert "the bench's own fit of this recording (drv.txt)" in text
+    page = ts._repr_html_()
+    assert "<th>DATS</th>" in page and "<th>model-free (90 %)</th>" in page
     back = read_thiele_small(json.loads(ts.to_json()))
     assert back.bench_fit == json.loads(json.dumps(b)) and back.model_free["parameters"]["fs"]
     # the report's T/S section carries the same columns

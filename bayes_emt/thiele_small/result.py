@@ -156,14 +156,18 @@ class ThieleSmall:
         return out
 
     def _repr_html_(self) -> str:
+        full = [r[:4] + self.reference_cells(r[0]) + r[4:] for r in self.rows()]
         cells = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>"
-                        for r in self.rows())
+                        for r in full)
+        extra = "".join(f"<th>{html.escape(h)}</th>" for h in self.reference_head())
         warn = "".join(f"<li>{html.escape(w['code'])}: {html.escape(w['message'])}</li>"
                        for w in self.warnings)
         return (f"<p>Thiele–Small parameters ({html.escape(self.method)}, "
                 f"model {html.escape(self.model)})</p>"
                 "<table><tr><th>parameter</th><th>value</th><th>90 % interval</th><th>model spread</th>"
-                f"<th>unit</th></tr>{cells}</table>" + (f"<ul>{warn}</ul>" if warn else ""))
+                f"{extra}<th>unit</th></tr>{cells}</table>"
+                + "".join(f"<p>{html.escape(n)}</p>" for n in self.reference_notes())
+                + (f"<ul>{warn}</ul>" if warn else ""))
 
     def to_json_dict(self) -> dict:
         """``{"kind": "thiele_small", "model", "method", "parameters", "inputs", "warnings"}`` (SI,
