@@ -81,6 +81,17 @@ def test_added_mass_mms_within_2_percent():
     assert lo < r["Mms"] < hi
 
 
+def test_removed_mass_gives_the_same_mms():
+    """A negative delta_m (mass removed: the loaded recording is the lighter one) gives Mms of the
+    heavier configuration minus nothing: swap the roles of the 10 g pair and Mms + 10 g comes back."""
+    sim = _plain(seed=2, deltas=(0.010,))
+    heavy, dm = sim.loaded[0]
+    r = model_free_ts(heavy, PLAIN["R0"], loaded=[(sim.free, -dm)])
+    assert r["Mms"] == pytest.approx(sim.truth["Mms"] + dm, rel=0.02)
+    with pytest.raises(ModelFreeUndefined, match="not below free air"):
+        model_free_ts(heavy, PLAIN["R0"], loaded=[(sim.free, dm)])
+
+
 def _rlc(f, fr, q, r):
     """A parallel R-L-C (a resonance of peak r [ohm] at fr [Hz], quality q)."""
     x = f / fr - fr / f

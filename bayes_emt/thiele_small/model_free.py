@@ -282,7 +282,8 @@ def model_free_ts(meas: Measurement, re: float | tuple[float, float], *, re_sour
     meas : the free-air recording (only the band it holds is used: select it beforehand).
     re : Re [ohm], or ``(Re, sd)`` [ohm] (sd 0: exact).
     re_source : where Re comes from, in words (``"model R0"``, ``"ohmmeter"``).
-    loaded : ``[(recording, delta_m_kg), ...]`` of the same driver with masses added: Mms, Cms, Bl.
+    loaded : ``[(recording, delta_m_kg), ...]`` of the same driver with masses added (negative:
+        removed): Mms, Cms, Bl.
     use_phase : locate fs at the phase zero (False: at the |Z| peak, for magnitude-only curves).
     n_draws, seed : resamplings for the intervals and their seed.
 
@@ -298,8 +299,9 @@ def model_free_ts(meas: Measurement, re: float | tuple[float, float], *, re_sour
         raise ValueError(f"n_draws must be at least 20 for 5-95 % quantiles, got {n_draws}")
     curves = [(meas, None)] + [(m, float(dm)) for m, dm in loaded]
     for i, (_, dm) in enumerate(curves[1:]):
-        if not (math.isfinite(dm) and dm > 0):
-            raise ValueError(f"loaded[{i}]: the added mass must be a positive number of kg, got {dm!r}")
+        if not (math.isfinite(dm) and dm != 0):
+            raise ValueError(f"loaded[{i}]: the added mass must be a non-zero number of kg (negative: "
+                             f"removed), got {dm!r}")
     data = []
     for m, _ in curves:
         f, mag, ph = _curve(m, use_phase)
@@ -316,9 +318,11 @@ def model_free_ts(meas: Measurement, re: float | tuple[float, float], *, re_sour
             for (fl, ml, pl), (mrec, dm), d in zip(rest, curves[1:], data[1:], strict=True):
                 fs_l = resonance(fl, ml, pl, noise=inflate * d[3], where=mrec.source)["fs"]
                 ratio = (out["fs"] / fs_l) ** 2 - 1
-                if ratio <= 0:
-                    raise ModelFreeUndefined(f"{mrec.source}: its resonance {fs_l:.4g} Hz is not below free "
-                                             f"air's {out['fs']:.4g} Hz although a mass was added")
+                if ratio * dm <= 0:
+                    moved = "below" if dm > 0 else "above"
+                    raise ModelFreeUndefined(f"{mrec.source}: its resonance {fs_l:.4g} Hz is not {moved} "
+                                             f"free air's {out['fs']:.4g} Hz although {abs(dm):g} kg was "
+                                             f"{'added' if dm > 0 else 'removed'}")
                 mms.append(dm / ratio)
             ws = 2 * math.pi * out["fs"]
             m_ = float(np.mean(mms))

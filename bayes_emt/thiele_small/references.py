@@ -76,7 +76,7 @@ def model_free_record(meas, parameters: dict, model_label: str, re_meter=None, l
     try:
         return model_free_ts(meas, re, re_source=source, loaded=loaded, seed=seed,
                              use_phase=use_phase).to_json_dict()
-    except ModelFreeUndefined as exc:
+    except (ModelFreeUndefined, ValueError) as exc:
         return {"refused": str(exc)}
 
 
