@@ -82,8 +82,8 @@ def test_added_mass_mms_within_2_percent():
 
 
 def test_removed_mass_gives_the_same_mms():
-    """A negative delta_m (mass removed: the loaded recording is the lighter one) gives Mms of the
-    heavier configuration minus nothing: swap the roles of the 10 g pair and Mms + 10 g comes back."""
+    """A negative delta_m (mass removed: the second recording is the lighter one): with the 10 g
+    pair's roles swapped, the moving mass of the heavier configuration, Mms + 10 g, comes back (2 %)."""
     sim = _plain(seed=2, deltas=(0.010,))
     heavy, dm = sim.loaded[0]
     r = model_free_ts(heavy, PLAIN["R0"], loaded=[(sim.free, -dm)])
