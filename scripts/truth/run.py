@@ -197,6 +197,9 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--no-white", action="store_true", help="skip the noise='white' column")
     ap.add_argument("--out", type=Path, default=REPO / "scripts" / "results" / "truth")
+    ap.add_argument("--code", default=None,
+                    help="what the imported package is, when it is not a git checkout (e.g. 'branch@commit', "
+                         "for a tree exported with git archive and put first on PYTHONPATH)")
     a = ap.parse_args(argv)
     cache = a.cache or default_cache()
     entries = [e for e in load_corpus() if not a.only or e["id"] in a.only]
@@ -267,7 +270,8 @@ def main(argv=None) -> int:
         print("note:", n)
     load = os.getloadavg()
     rec = {"label": a.label, "bayes_emt_version": getattr(bayes_emt, "__version__", "unknown"),
-           "bayes_emt_path": str(Path(bayes_emt.__file__).resolve().parent), "bayes_emt_commit": _commit(),
+           "bayes_emt_path": str(Path(bayes_emt.__file__).resolve().parent),
+           "bayes_emt_commit": a.code or _commit(),
            "seed": a.seed, "drivers": drivers, "rows": rows, "summary": summary, "notes": notes,
            "load_average": list(load), "command": " ".join([Path(sys.executable).name, *sys.argv])}
     a.out.mkdir(parents=True, exist_ok=True)
