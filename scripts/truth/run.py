@@ -178,6 +178,8 @@ def _commit() -> str:
                              text=True, timeout=10)
         dirty = subprocess.run(["git", "-C", str(src), "status", "--porcelain", "bayes_emt"],
                                capture_output=True, text=True, timeout=10).stdout.strip()
+        if out.returncode != 0 or not out.stdout.strip():
+            return "unknown (not a git checkout: pass --code)"
         return out.stdout.strip() + ("+uncommitted" if dirty else "")
     except (OSError, subprocess.SubprocessError):
         return "unknown"
