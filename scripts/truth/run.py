@@ -202,7 +202,12 @@ def main(argv=None) -> int:
     ap.add_argument("--code", default=None,
                     help="what the imported package is, when it is not a git checkout (e.g. 'branch@commit', "
                          "for a tree exported with git archive and put first on PYTHONPATH)")
+    ap.add_argument("--replot", type=Path, default=None, metavar="JSON",
+                    help="only redraw the picture of a run's JSON (beside it, same name .png)")
     a = ap.parse_args(argv)
+    if a.replot is not None:
+        print("wrote", draw(json.loads(a.replot.read_text()), a.replot.with_suffix(".png")))
+        return 0
     cache = a.cache or default_cache()
     entries = [e for e in load_corpus() if not a.only or e["id"] in a.only]
     rows, drivers, notes = [], [], []
@@ -281,18 +286,22 @@ def main(argv=None) -> int:
 
     jpath = a.out / f"truth_{a.label}.json"
     atomic_write_text(jpath, json.dumps(rec, indent=1, allow_nan=False) + "\n")
+    ppath = draw(rec, a.out / f"truth_{a.label}.png")
+    print(f"wrote {jpath} and {ppath}")
+    return 0
+
+
+def draw(rec: dict, path: Path) -> Path:
+    """The picture of a run's JSON record: intervals as bars against the references."""
     from bayes_emt.plotting import save_figure
 
     plot_reference_intervals = _repo_module("bayes_emt/plotting/truth.py",
                                             "bayes_emt.plotting.truth").plot_reference_intervals
-
     cov = "; ".join(f"{c} {100 * s['coverage']:.0f} %, median half-width {s['median_half_width_pct']:.1f} %"
-                    for c, s in summary.items() if s["pairs"])
-    fig = plot_reference_intervals(rows, title=f"ts 90 % intervals against independent references "
-                                   f"({a.label}, bayes_emt {rec['bayes_emt_commit']}): {cov}")
-    ppath = save_figure(fig, a.out / f"truth_{a.label}.png", dpi=110)
-    print(f"wrote {jpath} and {ppath}")
-    return 0
+                    for c, s in rec["summary"].items() if s["pairs"])
+    fig = plot_reference_intervals(rec["rows"], title=f"ts 90 % intervals against independent references "
+                                   f"({rec['label']}, bayes_emt {rec['bayes_emt_commit']}): {cov}")
+    return save_figure(fig, path, dpi=110)
 
 
 if __name__ == "__main__":
