@@ -81,3 +81,44 @@ def test_reference_interval_plot_draws():
     assert len(fig.axes) == 2 and [a.get_title() for a in fig.axes] == ["fs", "Qms"]
     with pytest.raises(ValueError, match="no rows"):
         plot_reference_intervals([])
+
+
+def _run_module():
+    import importlib.util
+    import sys
+
+    sys.path.insert(0, str(ROOT / "scripts" / "truth"))
+    spec = importlib.util.spec_from_file_location("truth_run", ROOT / "scripts" / "truth" / "run.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_run_scores_and_summarises():
+    run = _run_module()
+    inside = run.score({"value": 10.2, "ci90": [9.9, 10.4]}, 10.0)
+    assert inside["covered"] and inside["error_pct"] == pytest.approx(2.0)
+    assert inside["half_width_pct"] == pytest.approx(100 * 0.25 / 10.2)
+    outside = run.score({"value": 10.2, "ci90": [10.1, 10.3]}, 10.0)
+    assert not outside["covered"]
+    assert "covered" not in run.score({"value": 10.2, "ci90": None}, 10.0)
+    rows = [{"columns": {"default": inside}}, {"columns": {"default": outside}}, {"columns": {}}]
+    s = run.summarise(rows, "default")
+    assert s["pairs"] == 2 and s["covered"] == 1 and s["coverage"] == 0.5
+    mean_hw = (inside["half_width_pct"] + outside["half_width_pct"]) / 2
+    assert s["median_half_width_pct"] == pytest.approx(mean_hw)
+    assert run.summarise(rows, "white") == {"pairs": 0}
+
+
+def test_run_minimal_dats_parser_matches_the_header():
+    """The script's fallback parser (for packages without a DATS reader): the header's values in
+    SI, the repeated rows below the analyser's resolution dropped (267 of 344 rows kept)."""
+    run = _run_module()
+    path = ROOT / ".." / "shared" / "realdata" / "grs_12SW-4HE_dats_0h.txt"
+    if not path.is_file():
+        pytest.skip("realdata absent")
+    meas = run.read_dats_minimal(path)
+    vals = meas.meta["bench_fit"]["values"]
+    assert vals == {"fs": 25.07, "Re": 4.2, "Qms": 3.929, "Qes": 0.5885, "Qts": 0.5118,
+                    "Le": pytest.approx(2.855e-3)}
+    assert meas.n_points == 267 and meas.f_hz[0] == pytest.approx(9.514)
