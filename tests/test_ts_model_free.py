@@ -287,3 +287,16 @@ def test_ls10_44_added_mass_pair_on_a_dense_noisy_grid():
     assert r.inputs["failed_draws"] == 0
     assert r["Mms"] == pytest.approx(0.132, rel=0.05)
     assert r["fs"] == pytest.approx(41.9, rel=0.01)  # the README's "fs = 42 Hz" of this sample
+
+
+def test_ts_model_free_uses_the_ohmmeter_and_the_added_masses():
+    """With --re the model-free Re is the reading; with added masses ts's model-free column has
+    Mms (within 2 % of the truth) beside the joint fit's."""
+    sim = _plain(seed=8, deltas=(0.010,), n_points=300)
+    ts = thiele_small(sim.free, "I", re=(5.7, 0.02), fast=True, models_for_spread=[])
+    assert ts.model_free["re_source"] == "ohmmeter reading"
+    assert ts.model_free["inputs"]["re_ohm"] == 5.7 and ts.model_free["inputs"]["re_sd_ohm"] == 0.02
+    am = thiele_small(sim.free, "I", loaded=sim.loaded, fast=True, models_for_spread=[])
+    assert am.model_free["parameters"]["Mms"]["value"] == pytest.approx(sim.truth["Mms"], rel=0.02)
+    row = next(ln for ln in am.summary().splitlines() if ln.startswith("Mms"))
+    assert f"{am.model_free['parameters']['Mms']['value'] * 1e3:.4g} (" in row  # grams, with its interval
