@@ -72,7 +72,6 @@ from ..errors import DataFormatError
 from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
-from .references import bench_comparison, bench_model_free_notes, disagreements, model_free_record
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
@@ -528,6 +527,8 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                               "values": _point_values(points[r["model"]])}
                              for r in records]}}
     # the reference columns: Small's model-free values off the curve, the bench's own fit (references.py)
+    from .references import bench_comparison, bench_model_free_notes, disagreements, model_free_record
+
     mf = model_free_record(meas, params, main.label, re_meter=re_t, loaded=lm, seed=int(seed),
                            use_phase=meas.meta.get("phase") != "absent")
     warns += disagreements(params, mf)
