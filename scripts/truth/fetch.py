@@ -7,7 +7,7 @@ commit: reproducible on a clean machine with network access to GitHub only) and 
 its SHA-256 matches the corpus; it lands in ``<cache>/<owner+name>/<commit[:12]>/<path>``
 (default cache ``~/.cache/bayes_emt_truth``, or ``$BAYES_EMT_TRUTH_CACHE``). A driver whose source
 is unreachable, or whose bytes differ, is skipped with one line. ``--shared DIR`` first looks for
-an unchanged copy (``shared_copy`` in the corpus) in DIR, e.g. ``../shared/realdata``, and uses it
+an unchanged copy (``shared_copy`` in the corpus: the file name there) in DIR and uses it
 in place if its hash matches. Nothing is ever written inside the repository.
 """
 

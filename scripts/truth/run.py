@@ -5,7 +5,7 @@
 
 For every driver of ``scripts/truth/corpus.toml`` whose recording is available (``fetch.py``
 downloads it at the pinned commit into ``~/.cache/bayes_emt_truth`` and checks its SHA-256;
-``--shared ../shared/realdata`` uses unchanged copies found there):
+``--shared DIR`` uses unchanged copies found in DIR):
 
 1. the recording is read with the installed package's reader (``bayes_emt.io.read_measurement``);
    where that reader refuses a DATS export, with this script's own minimal DATS parser (the ``*``
@@ -194,7 +194,7 @@ def main(argv=None) -> int:
     ap.add_argument("--label", default="default", help="name of this run (output file names)")
     ap.add_argument("--cache", type=Path, default=None)
     ap.add_argument("--shared", type=Path, default=None,
-                    help="directory with unchanged copies (../shared/realdata)")
+                    help="a directory holding unchanged copies of corpus recordings (checked by SHA-256)")
     ap.add_argument("--only", action="append", default=[], metavar="ID", help="run only these corpus ids")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--no-white", action="store_true", help="skip the noise='white' column")
