@@ -256,10 +256,14 @@ def ts_section(rf: RunFiles, run: dict | None) -> dict:
         except Exception as exc:  # noqa: BLE001 - a bad file is reported, the report still renders
             rf.problems.append(f"{L.TS}: {exc}")
         else:
-            return _section("ts", "Thiele–Small parameters", True, rows=ts.rows(), model=ts.model,
+            # the model-free and bench columns beside ours when the record carries them
+            rows = [r[:4] + ts.reference_cells(r[0]) + r[4:] for r in ts.rows()]
+            head = ("parameter", "value", "90 % interval", "model spread", *ts.reference_head(), "unit")
+            return _section("ts", "Thiele–Small parameters", True, rows=rows, head=head, model=ts.model,
                             method=ts.method.replace("_", " "), intervals=True,
                             uncertainty=ts.inputs.get("uncertainty", "posterior"),
-                            figure=_ts_figure(rf, ts) or rf.glob_image("ts_fit.png"))
+                            figure=_ts_figure(rf, ts) or rf.glob_image("ts_fit.png"),
+                            notes=ts.reference_notes())
     fits = rf.json(L.FITS)
     if isinstance(fits, dict) and fits:
         from ..io.paramfile import model_from_record

@@ -4,7 +4,9 @@ Sits beside :mod:`bayes_emt.discovery`, above the features it uses (added mass, 
 estimation)."""
 
 from .compute import from_fit, from_posterior, thiele_small
+from .model_free import ModelFree, ModelFreeUndefined, model_free_ts
 from .relations import NAMES, UNITS
 from .result import ThieleSmall, read_thiele_small
 
-__all__ = ["thiele_small", "from_fit", "from_posterior", "ThieleSmall", "read_thiele_small", "NAMES", "UNITS"]
+__all__ = ["thiele_small", "from_fit", "from_posterior", "ThieleSmall", "read_thiele_small", "NAMES", "UNITS",
+           "model_free_ts", "ModelFree", "ModelFreeUndefined"]

@@ -566,8 +566,17 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                               "probability": r["probability"], "included": r["included"],
                               "values": _point_values(points[r["model"]])}
                              for r in records]}}
+    # the reference columns: Small's model-free values off the curve, the bench's own fit (references.py)
+    from .references import bench_comparison, bench_model_free_notes, disagreements, model_free_record
+
+    mf = model_free_record(meas, params, main.label, re_meter=re_t, loaded=lm, seed=int(seed),
+                           use_phase=meas.meta.get("phase") != "absent")
+    warns += disagreements(params, mf)
+    warns += bench_model_free_notes(meas, mf, meas.meta.get("bench_fit"), seed=int(seed),
+                                    use_phase=meas.meta.get("phase") != "absent")
     return ThieleSmall(model=main.spec, method=method, parameters=params, inputs=inputs,
-                       warnings=tuple(_dedupe(warns)), curve=inp.curve)
+                       warnings=tuple(_dedupe(warns)), model_free=mf, curve=inp.curve,
+                       bench_fit=bench_comparison(params, meas.meta.get("bench_fit")))
 
 
 def _point_values(ts: dict) -> dict:

@@ -50,6 +50,11 @@ class ThieleSmall:
     curve : the fitted free-air impedance curve with its 90 % posterior predictive band and the
         recording's points (:mod:`bayes_emt.thiele_small.curve`), or ``None``; what the figure of
         the fit (:func:`bayes_emt.plotting.thiele_small.plot_ts_fit`) is drawn from.
+    model_free : Small's model-free values read off the free-air curve
+        (:func:`~bayes_emt.thiele_small.model_free.model_free_ts`: ``{"parameters", "re_source",
+        "inputs"}``), ``{"refused": reason}`` where the method is undefined, or None (not computed).
+    bench_fit : the bench's own fit of the same recording beside ours
+        (:func:`~bayes_emt.thiele_small.references.bench_comparison`), or None.
     """
 
     model: str
@@ -57,6 +62,8 @@ class ThieleSmall:
     parameters: dict
     inputs: dict = field(default_factory=dict)
     warnings: tuple = ()
+    model_free: dict | None = None
+    bench_fit: dict | None = None
     curve: dict | None = field(default=None, compare=False, repr=False)
 
     kind: ClassVar[str] = "thiele_small"
@@ -88,32 +95,83 @@ class ThieleSmall:
             out.append((name, _fmt(p["value"] * f), interval, spread, unit))
         return out
 
+    def reference_head(self) -> tuple[str, ...]:
+        """Headers of the reference columns (:meth:`reference_cells`): the model-free value with its
+        interval, and the bench's value, its difference from ours and whether our interval holds it."""
+        head = ()
+        if self.model_free and "parameters" in self.model_free:
+            head += ("model-free (90 %)",)
+        if self.bench_fit:
+            head += (self.bench_fit.get("bench", "bench"), "diff", "in ours")
+        return head
+
+    def reference_cells(self, name: str) -> tuple[str, ...]:
+        """The reference columns of one parameter in display units (``-`` where absent)."""
+        cells = ()
+        unit, f = DISPLAY.get(name, ("", 1.0))
+        if self.model_free and "parameters" in self.model_free:
+            q = self.model_free["parameters"].get(name)
+            cells += ("-" if q is None else
+                      f"{_fmt(q['value'] * f)} ({_fmt(q['ci90'][0] * f)} .. {_fmt(q['ci90'][1] * f)})",)
+        if self.bench_fit:
+            b = self.bench_fit["values"].get(name)
+            if b is None:
+                cells += ("-", "-", "-")
+            else:
+                d = b["difference_pct"]
+                inside = {True: "yes", False: "no", None: "-"}[b["inside_ci90"]]
+                cells += (_fmt(b["bench"] * f), "-" if d is None else f"{d:+.1f} %", inside)
+        return cells
+
     def summary(self) -> str:
         """A plain-text table (Hz, Ω, mH, g, mm/N, L, dB) with a header line and the warnings'
-        codes (one line each)."""
-        rows = self.rows()
-        head = ("parameter", "value", "90 % interval", "model spread", "unit")
-        widths = [max(len(str(r[i])) for r in [head, *rows]) for i in range(5)]
+        codes (one line each); the model-free and bench columns beside ours when present."""
+        extra = self.reference_head()
+        rows = [r[:4] + self.reference_cells(r[0]) + r[4:] for r in self.rows()]
+        head = ("parameter", "value", "90 % interval", "model spread", *extra, "unit")
+        widths = [max(len(str(r[i])) for r in [head, *rows]) for i in range(len(head))]
         line = "  ".join(f"{{:<{w}}}" for w in widths)
         how = self.inputs.get("uncertainty", "posterior")
         how = "no intervals" if how == "none" else f"intervals from the {how}"
         text = [f"Thiele-Small parameters ({self.method.replace('_', ' ')}, model {self.model}, {how})",
                 line.format(*head), "  ".join("-" * w for w in widths)]
         text += [line.format(*r) for r in rows]
+        text += self.reference_notes()
         for g in group_warnings(self.warnings):  # one line each; the full text is in to_json()
             who = f" ({', '.join(g['sources'])})" if g["sources"] else ""
             text.append(f"warning [{g['code']}]{g['band']}: {g['short']}{who}")
         return "\n".join(text)
 
+    def reference_notes(self) -> list[str]:
+        """One line each: where the model-free column's Re came from, or why it is absent; where
+        the bench's fit came from."""
+        out = []
+        mf = self.model_free
+        if mf and "parameters" in mf:
+            out.append(f"model-free: Small's method on the curve, Re from the {mf['re_source']}")
+            out += [f"model-free: {n}" for n in mf.get("inputs", {}).get("notes", [])]
+        elif mf and "refused" in mf:
+            out.append(f"model-free: not available ({mf['refused']})")
+        if self.bench_fit:
+            src = self.bench_fit.get("source")
+            out.append(f"{self.bench_fit.get('bench', 'bench')}: the bench's own fit of this recording"
+                       + (f" ({src})" if src else "") + "; diff = (bench - value)/value, in ours = inside "
+                       "the 90 % interval")
+        return out
+
     def _repr_html_(self) -> str:
+        full = [r[:4] + self.reference_cells(r[0]) + r[4:] for r in self.rows()]
         cells = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>"
-                        for r in self.rows())
+                        for r in full)
+        extra = "".join(f"<th>{html.escape(h)}</th>" for h in self.reference_head())
         warn = "".join(f"<li>{html.escape(w['code'])}: {html.escape(w['message'])}</li>"
                        for w in self.warnings)
         return (f"<p>Thiele–Small parameters ({html.escape(self.method)}, "
                 f"model {html.escape(self.model)})</p>"
                 "<table><tr><th>parameter</th><th>value</th><th>90 % interval</th><th>model spread</th>"
-                f"<th>unit</th></tr>{cells}</table>" + (f"<ul>{warn}</ul>" if warn else ""))
+                f"{extra}<th>unit</th></tr>{cells}</table>"
+                + "".join(f"<p>{html.escape(n)}</p>" for n in self.reference_notes())
+                + (f"<ul>{warn}</ul>" if warn else ""))
 
     def to_json_dict(self) -> dict:
         """``{"kind": "thiele_small", "model", "method", "parameters", "inputs", "warnings"}`` (SI,
@@ -123,6 +181,10 @@ class ThieleSmall:
                "warnings": [dict(w) for w in self.warnings]}
         if self.curve is not None:
             rec["curve"] = self.curve
+        if self.model_free is not None:
+            rec["model_free"] = self.model_free
+        if self.bench_fit is not None:
+            rec["bench_fit"] = self.bench_fit
         return strict_json(rec)
 
     @classmethod
@@ -156,7 +218,8 @@ def read_thiele_small(source: str | Path | dict) -> ThieleSmall:
             raise DataFormatError(f"{where}: parameter {name!r} is not a T/S entry with value, ci90, unit")
     return ThieleSmall(model=str(source["model"]), method=str(source["method"]),
                        parameters=dict(source["parameters"]), inputs=dict(source.get("inputs", {})),
-                       warnings=tuple(source.get("warnings", ())),
+                       warnings=tuple(source.get("warnings", ())), model_free=source.get("model_free"),
+                       bench_fit=source.get("bench_fit"),
                        curve=source["curve"] if isinstance(source.get("curve"), dict) else None)
 
 
