@@ -126,7 +126,7 @@ def run(args) -> int:
         setup=args.setup,
         exclude_band=args.exclude_band,
         workers=args.workers,
-        progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)),
+        progress=(lambda msg: print("  " + msg, flush=True)) if args.verbose else None,
         **({} if args.per_decade is None else {"per_decade": args.per_decade or None}),
     )
     d = diagnose(meas, model, **settings)
@@ -140,6 +140,32 @@ def run(args) -> int:
         f"{meas.source}: {meas.n_points} points{thinned}, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz; "
         f"{d.seconds:.0f} s"
     )
+    if not args.verbose:
+        from ...discovery.summary import MAX_LINES, summary_lines
+
+        for line in summary_lines(d, args.setup, max_lines=MAX_LINES - 1):
+            print(line)
+    else:
+        _print_details(d)
+    if args.json:
+        d.save(args.json)
+        print(f"wrote {args.json}")
+    if args.plot:
+        from ...plotting import save_figure
+        from ...plotting.discovery import plot_bode_overlay, plot_residuals
+
+        folder = Path(args.plot)
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, fig in (
+            ("residuals.png", plot_residuals(d, meas)),
+            ("bode.png", plot_bode_overlay(d, meas)),
+        ):
+            print(f"wrote {save_figure(fig, folder / name)}")
+    return 1 if d.warnings else 0
+
+
+def _print_details(d) -> None:
+    """The verbose output: each finding's statistics, the joint checks, every warning."""
     print(
         f"start {d.baseline_model} (rms relative residual {100 * d.baseline_fit.rms_rel_residual:.3g} %) -> "
         f"final {d.final_model} ({100 * d.final_fit.rms_rel_residual:.3g} %)"
@@ -172,18 +198,3 @@ def run(args) -> int:
                   f"consistency p {a['consistency_p_value']:.3g}")
     for w in d.warnings:
         print("warning: " + w)
-    if args.json:
-        d.save(args.json)
-        print(f"wrote {args.json}")
-    if args.plot:
-        from ...plotting import save_figure
-        from ...plotting.discovery import plot_bode_overlay, plot_residuals
-
-        folder = Path(args.plot)
-        folder.mkdir(parents=True, exist_ok=True)
-        for name, fig in (
-            ("residuals.png", plot_residuals(d, meas)),
-            ("bode.png", plot_bode_overlay(d, meas)),
-        ):
-            print(f"wrote {save_figure(fig, folder / name)}")
-    return 1 if d.warnings else 0
