@@ -68,7 +68,8 @@ def _at_edge(fit: FitResult, names) -> list[str]:
 
 def _merged(fit: FitResult) -> list[str]:
     v = fit.model.as_dict(fit.theta)
-    res = [(n, x) for n, x in v.items() if n.startswith("omega") and n != "omegas" and x > 0]
+    steps = {t.step_at for t in fit.model.augmentations if t.step_at}  # a step's frequency is no mode
+    res = [(n, x) for n, x in v.items() if n.startswith("omega") and n not in steps and x > 0]
     out = []
     for i, (a, wa) in enumerate(res):
         for b, wb in res[i + 1:]:

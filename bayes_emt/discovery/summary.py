@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from ..estimation.results import FitResult
-from ..models import TERMS
+from ..models import EDDY_PHYSICS, TERMS
 from ..models.derived import mechanical_resonance
 
 __all__ = ["summary_lines", "ts_values", "MAX_LINES", "DECISION_WORDS"]
@@ -82,7 +82,7 @@ def _physics_words(physics: str, model_spec: str = "") -> str:
     for p in physics.split("+"):
         cls = TERMS.get(p)
         desc = getattr(cls, "description", "") if cls is not None else ""
-        if p == "eddy_current":
+        if p == EDDY_PHYSICS:
             coil = model_spec.split("+")[0]
             desc = "eddy currents in the pole piece" + (f", coil model {coil}" if coil else "")
         out.append(f"{p} ({desc.split(':')[0]})" if desc else p)
@@ -97,12 +97,17 @@ def box_line(fit: FitResult, setup: str = "unknown") -> str:
     """The box terms of ``fit`` (module docstring), ``""`` without a box."""
     v = fit.model.as_dict(fit.theta)
     ts = ts_values(fit)
-    if "omegab" in v:
-        peaks = _impedance_peaks(fit)
-        pk = (", impedance peaks at " + " and ".join(f"{p:.3g}" for p in peaks) + " Hz") if peaks else ""
-        fb, qb = v["omegab"] / (2 * math.pi), 1 / (2 * v["zetab"])
-        return (f"vented box (final fit): fb {fb:.4g} Hz, Qb {qb:.3g} "
-                f"(box losses), the driver's resonance in the box {ts.get('fs', float('nan')):.4g} Hz{pk}")
+    # a term that takes part of the resonance (a port or passive radiator): its tuning and damping
+    box = next((t for t in fit.model.augmentations if t.moves_resonance), None)
+    if box is not None:
+        w = next((n for n in box.params.names if n.startswith("omega")), None)
+        z = next((n for n in box.params.names if n.startswith("zeta")), None)
+        if w is not None and z is not None:
+            peaks = _impedance_peaks(fit)
+            pk = (", impedance peaks at " + " and ".join(f"{p:.3g}" for p in peaks) + " Hz") if peaks else ""
+            fb, qb = v[w] / (2 * math.pi), 1 / (2 * v[z])
+            return (f"vented box (final fit): fb {fb:.4g} Hz, Qb {qb:.3g} (box losses), the driver's "
+                    f"resonance in the box {ts.get('fs', float('nan')):.4g} Hz{pk}")
     if setup == "sealed" and ts:
         return (f"sealed box (final fit): the driver's in-box resonance fc {ts['fs']:.4g} Hz, Qtc "
                 f"{ts['Qts']:.3g} (free-air fs needs a free-air recording)")
@@ -121,7 +126,7 @@ def _impedance_peaks(fit: FitResult) -> list[float]:
 def coil_line(fit: FitResult) -> str:
     """A ring ladder (or any lossy coil model) as Le and loss resistance at :data:`COIL_HZ`."""
     m = fit.model
-    if getattr(m, "rings", None) is None and "K_semi" not in m.names:
+    if getattr(m, "rings", None) is None and not any(t.stage == "series" for t in m.augmentations):
         return ""
     om = 2 * math.pi * np.asarray(COIL_HZ)
     with np.errstate(all="ignore"):
