@@ -304,8 +304,8 @@ def _divided_fits(meas: Measurement, current: FitResult, new: Model, starts) -> 
     """A measurement step's fits that do not inherit the current fit's valley: the current fit has
     absorbed the unexplained step into the device's parameters (an NL(5) ring ladder bends its phase
     to follow a 0.05 rad step), and a polish warm-started from it keeps that bend, so the step no
-    longer pays (issue 35: a 25-sigma phase step at 3000 rad/s lost to the rings). For each start the
-    step it proposes (``Y_new(start) / Y_current(start)``: the term multiplies ``Y``) is divided out
+    longer pays (an NL(5) plant's 25-sigma phase step at 3000 rad/s was lost to the rings). For each
+    start the step it proposes (``Y_new(start) / Y_current(start)``: the term multiplies ``Y``) is divided out
     of the data, the current model is fitted afresh to the corrected data (automatic start), and the
     model with the step is polished on the measured data from that fit and the start's step."""
     out = []

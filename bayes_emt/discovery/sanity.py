@@ -1,4 +1,4 @@
-"""Sanity of a final model: a fit that is broken physics is not an answer (issue 35).
+"""Sanity of a final model: a fit that is broken physics is not an answer.
 
 A search that adds terms while the evidence rises can end on a fit whose values are not a driver: a
 damping ratio pressed against its prior's edge (ζ = 10⁻⁵, Qms = 50 000), the driver's resonance

@@ -2,11 +2,17 @@
 
 Locates bands where the model and the recording differ beyond the noise (a scan whose family-wise
 false-alarm rate is calibrated by simulation from the fitted model), names the catalogue physics
-(SPEC §7) that explains each, adds it, and repeats until no significant mismatch remains. Without
-``--model`` it starts from the base model the evidence prefers (I, II, III, UD by Laplace log Z).
-Prints each finding in plain words (band in Hz, Δ log Z in nats, the band's χ² before and after,
-parameters that moved) and what stays unexplained; ``--json`` writes the issue-13 record
-(``final_model`` is a spec that fit, sample, added-mass and shunt accept), ``--plot`` the
+that explains each, adds it, and repeats until no significant mismatch remains. Without ``--model``
+it starts from the base model the evidence prefers (I, II, III, UD by Laplace log Z). A final
+model that is broken physics (a parameter at its prior's edge, the driver's resonance merged with
+another mode, Thiele-Small values outside physical ranges) is refused: the search backs off to the
+best model it reached without the defect and says so in one line.
+Prints at most 20 lines in the driver's terms: the start and final model, the final Thiele-Small
+values, each finding with its band in Hz and its effect on the Thiele-Small values, box terms
+(fb in Hz) and the coil's inductance and loss, the unexplained bands, the warnings that change a
+decision. ``--verbose`` prints the statistics behind them (log evidence in nats, the band's chi2
+before and after, every candidate tried) and the search's progress; ``--json`` writes the whole
+record (``final_model`` is a spec that fit, sample, added-mass and shunt accept), ``--plot`` the
 residuals before/after with the bands shaded and a Bode overlay.
 Exit status 0, or 1 when the result carries warnings, 2 on a user error.
 """
