@@ -282,7 +282,7 @@ def fit_candidate(
         except (FitError, ValueError):
             continue
     if term.step_at and term.stage == "measurement":
-        fits += _divided_fits(meas, current, new, starts[:STARTS_POLISHED])
+        fits += _divided_fits(meas, current, new, starts[:STARTS_POLISHED], term.step_at)
     ok = [f for f in fits if not f.info.get("resonance_mismatch")] or fits
     if not ok:
         return []
@@ -300,7 +300,11 @@ def fit_candidate(
     return [(best, fit_log_evidence(meas, best) if evidence else None)]
 
 
-def _divided_fits(meas: Measurement, current: FitResult, new: Model, starts) -> list[FitResult]:
+#: points either side of a step start searched for its discontinuity (:func:`_divided_fits`)
+STEP_SHIFT = 3
+
+
+def _divided_fits(meas: Measurement, current: FitResult, new: Model, starts, step_at: str) -> list[FitResult]:
     """A measurement step's fits that do not inherit the current fit's valley: the current fit has
     absorbed the unexplained step into the device's parameters (an NL(5) ring ladder bends its phase
     to follow a 0.05 rad step), and a polish warm-started from it keeps that bend, so the step no
@@ -308,12 +312,29 @@ def _divided_fits(meas: Measurement, current: FitResult, new: Model, starts) -> 
     start the step it proposes (``Y_new(start) / Y_current(start)``: the term multiplies ``Y``) is divided out
     of the data, the current model is fitted afresh to the corrected data (automatic start), and the
     model with the step is polished on the measured data from that fit and the start's step."""
+    from .prefer import STEP_CHI2, local_step_fit
+
     out = []
     cur = current.model.bind(meas.omega)
     full = new.bind(meas.omega)
     shared = [new.names.index(n) for n in current.model.names]
     for s in starts:
         s = np.asarray(s, float)
+        # the start's step moved to the strongest local discontinuity within STEP_SHIFT points
+        # (the start's median windows place it a point or two off); a start with none there is
+        # not refitted: a step without one is refused by the same local test whatever the fit
+        # (:func:`.prefer.step_evidence`)
+        i = new.names.index(step_at)
+        k0 = int(np.searchsorted(meas.omega, s[i]))
+        best = None
+        for k in range(max(k0 - STEP_SHIFT, 1), min(k0 + STEP_SHIFT + 1, meas.n_points)):
+            ws = float(np.sqrt(meas.omega[k - 1] * meas.omega[k]))
+            est = local_step_fit(meas, current, ws)
+            if est is not None and est[1] >= STEP_CHI2 and (best is None or est[1] > best[1]):
+                best = (ws, est[1])
+        if best is None:
+            continue
+        s[i] = best[0]
         with np.errstate(all="ignore"):
             ratio = full.admittance(meas.omega, s) / cur.admittance(meas.omega, s[shared])
         if not np.all(np.isfinite(ratio)) or np.any(ratio == 0):
