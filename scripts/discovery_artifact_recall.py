@@ -30,11 +30,17 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="scripts/results/discovery")
     ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--only", nargs="*", default=None, help="run only these cases (the table: every case "
+                    "already finished)")
     a = ap.parse_args(argv)
     bench.WORKERS = a.workers
     out = Path(a.out)
     rows, recs = [], []
     for c in bench.step_cases():
+        done = (out / "cases" / f"{c['name']}.json").exists()
+        if a.only is not None and c["name"] not in a.only:
+            if not done:
+                continue
         r = bench.run_case(c, out)
         eff = c["effects"]["measurement_artifact"]
         px = round(eff["psi_s"] / c["noise"])
