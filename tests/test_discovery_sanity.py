@@ -51,6 +51,16 @@ def test_back_off_takes_the_latest_model_without_a_defect():
     assert back_off([(good0, []), (good1, ["Cp"])]) == (1, [])
     i, why = back_off([(good0, []), (good1, ["Cp"]), (bad, ["Cp"])])
     assert i == 1 and any("zeta" in w for w in why)
+    i, why = back_off([(bad, []), (bad, ["Cp"])])
+    assert i is None and why  # nothing to back off to
+
+
+def test_a_broken_start_with_nothing_to_back_off_to_is_said_not_hidden():
+    bad = _fit("I", {**DRIVER, "zeta": 1e-5})
+    findings, fit, lz, line = _sanity(None, bad, [(bad, 3.0, None)], [], bad, 3.0)
+    assert fit is bad and findings == [] and lz == 3.0
+    assert line.startswith("the final model I is broken physics: zeta = 1e-05 at the edge of its prior")
+    assert "backed off" not in line
 
 
 @pytest.fixture(scope="module")

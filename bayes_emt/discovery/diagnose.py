@@ -492,6 +492,10 @@ def _sanity(meas, baseline, history, findings, fit, lz):
     i, bad = back_off(hist)
     if not bad:
         return None
+    if i is None:  # nothing to back off to: said, the fit kept
+        return list(findings), fit, lz, (
+            f"the final model {fit.model.label} is broken physics: {'; '.join(bad)}; no model the search "
+            "reached is free of it (the start included): its values are not a driver's, do not use them")
     keep_fit, keep_lz, _ = history[i]
     kept = {id(h[2]) for h in history[1:i + 1]}
     dropped = [f.physics for f in findings if id(f) not in kept]
@@ -825,9 +829,11 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
     warn.extend(stab)
     refused = _sanity(meas, baseline, history, findings, fit, lz)
     if refused is not None:
+        changed = refused[1] is not fit
         findings, fit, lz, line = refused
         say(line)
         warn.append(line)
+    if refused is not None and changed:
         loc = locate_mismatch(meas, fit.model, fit.theta, alpha=alpha, seed=seed + len(locations))
         locations.append({"round": len(locations), "model": fit.model.label, **loc.to_json_dict()})
         unexplained_bands = list(loc.bands)

@@ -101,17 +101,17 @@ def defects(fit: FitResult, added=()) -> list[str]:
     return _at_edge(fit, [*PLANT, *added]) + _merged(fit) + _ranges(fit)
 
 
-def back_off(history) -> tuple[int, list[str]]:
+def back_off(history) -> tuple[int | None, list[str]]:
     """``history``: ``[(fit, added parameter names), ...]`` of the start and each accepted model in the
-    order reached. Returns the index of the last one without a defect (0, the start, when all have
-    one) and the defects of the last (``[]`` when it has none: no back-off)."""
+    order reached. Returns the index of the last one without a defect (``None`` when every one has a
+    defect) and the defects of the last (``[]`` when it has none: no back-off)."""
     last = defects(*history[-1])
     if not last:
         return len(history) - 1, []
     for i in range(len(history) - 2, -1, -1):
         if not defects(*history[i]):
             return i, last
-    return 0, last
+    return None, last
 
 
 #: a final rms relative residual above this, with a broadband unexplained band, names the structures
