@@ -31,8 +31,7 @@ __all__ = ["summary_lines", "ts_values", "MAX_LINES", "DECISION_WORDS"]
 MAX_LINES = 20
 #: a warning holding one of these changes what the user does with the result (the rest: --verbose)
 DECISION_WORDS = ("refused", "broken physics", "time budget", "cannot tell", "R0 moved", "resonance away",
-                  "two drivers", "joint evidence", "not determined", "stopped after", "indistinguishable",
-                  "start")
+                  "two drivers", "joint evidence", "not determined", "stopped after", "indistinguishable")
 #: frequencies [Hz] at which a ring ladder's coil is summarised
 COIL_HZ = (100.0, 1000.0, 10000.0)
 
