@@ -10,7 +10,9 @@ only the base model the data was simulated from), runs :func:`bayes_emt.discover
 each, and scores: the right physics ids (every true effect named, nothing else), the reported
 band overlapping the true band (where the effect changes ``Y`` by more than the noise), the time.
 Null cases must give no finding; ``--null-seeds`` more null recordings give the false-finding
-rate. Each case's result is written as it finishes (``cases/NAME.json``) and reused on a re-run
+rate. The instrument-step recall cases (:func:`step_cases`, NL(5) and UD plants, phase steps 5-25
+times the noise) are among the cases; ``scripts/discovery_artifact_recall.py`` scores them alone.
+Each case's result is written as it finishes (``cases/NAME.json``) and reused on a re-run
 (resume); the score table is ``scores.md`` and ``scores.json`` in ``--out``.
 """
 
