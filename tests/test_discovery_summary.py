@@ -66,6 +66,8 @@ def test_a_ring_ladder_reads_as_its_coil_inductance_and_loss():
     line = coil_line(fit)
     assert line.startswith("coil (final fit) at 100, 1000, 10000 Hz: Le ") and "mH" in line and "ohm" in line
     assert "Pg" not in line and "P1" not in line  # the raw ladder stays in the JSON
+    # a recording up to 1 kHz: no value at 10 kHz (no extrapolation)
+    assert coil_line(fit, (10.0, 1000.0)).startswith("coil (final fit) at 100, 1000 Hz: Le ")
     assert coil_line(FitResult(parse_model_spec("I"), parse_model_spec("I").vector(
         {"zeta": 0.1, "omega0": 280.0, "phi": 50.0, "R0": 6.0, "L0": 5e-4}), None, 0.0, 0.0, 10)) == ""
 

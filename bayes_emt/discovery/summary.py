@@ -123,22 +123,28 @@ def _impedance_peaks(fit: FitResult) -> list[float]:
     return [float(om[k] / (2 * math.pi)) for k in i][:3]
 
 
-def coil_line(fit: FitResult) -> str:
-    """A ring ladder (or any lossy coil model) as Le and loss resistance at :data:`COIL_HZ`."""
+def coil_line(fit: FitResult, f_range: tuple[float, float] | None = None) -> str:
+    """A ring ladder (or any lossy coil model) as Le and loss resistance at :data:`COIL_HZ` (those
+    inside ``f_range`` [Hz], the recording's band, when given: no extrapolation)."""
     m = fit.model
     if getattr(m, "rings", None) is None and not any(t.stage == "series" for t in m.augmentations):
         return ""
-    om = 2 * math.pi * np.asarray(COIL_HZ)
+    hz = [f for f in COIL_HZ if f_range is None or f_range[0] <= f <= f_range[1]]
+    if not hz:
+        return ""
+    om = 2 * math.pi * np.asarray(hz)
     with np.errstate(all="ignore"):
         zc = np.asarray(m.coil_impedance(om, np.asarray(fit.theta, float)[None, :]))[0]
     le = ", ".join(f"{1e3 * z.imag / w:.3g} mH" for z, w in zip(zc, om, strict=True))
     rl = ", ".join(f"{z.real:.3g} ohm" for z in zc)
-    at = ", ".join(f"{f:g}" for f in COIL_HZ)
+    at = ", ".join(f"{f:g}" for f in hz)
     return f"coil (final fit) at {at} Hz: Le {le}; loss resistance {rl}"
 
 
-def summary_lines(d, setup: str = "unknown", max_lines: int = MAX_LINES) -> list[str]:
-    """The default output of a diagnosis ``d`` (module docstring), at most ``max_lines`` lines."""
+def summary_lines(d, setup: str = "unknown", max_lines: int = MAX_LINES,
+                  f_range: tuple[float, float] | None = None) -> list[str]:
+    """The default output of a diagnosis ``d`` (module docstring), at most ``max_lines`` lines;
+    ``f_range`` the recording's band [Hz] (the coil is summarised inside it)."""
     fin = d.final_fit
     out = [f"start {d.baseline_model} (rms residual {100 * d.baseline_fit.rms_rel_residual:.3g} %) -> final "
            f"{d.final_model} ({100 * fin.rms_rel_residual:.3g} %)"]
@@ -154,7 +160,7 @@ def summary_lines(d, setup: str = "unknown", max_lines: int = MAX_LINES) -> list
         out.append(f"finding {i}: {words}, {where}{_hz(f.band.lo, f.band.hi)}"
                    + (f"; effect on T/S: {eff}" if eff else "") + narrow
                    + ("" if f.identifiable else "; its values are not determined by the data"))
-    for line in (box_line(fin, setup), coil_line(fin)):
+    for line in (box_line(fin, setup), coil_line(fin, f_range)):
         if line:
             out.append(line)
     if not d.findings and not d.unexplained:

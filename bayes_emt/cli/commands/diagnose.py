@@ -149,7 +149,8 @@ def run(args) -> int:
     if not args.verbose:
         from ...discovery.summary import MAX_LINES, summary_lines
 
-        for line in summary_lines(d, args.setup, max_lines=MAX_LINES - 1):
+        for line in summary_lines(d, args.setup, max_lines=MAX_LINES - 1,
+                                  f_range=(float(meas.f_hz[0]), float(meas.f_hz[-1]))):
             print(line)
     else:
         _print_details(d)
