@@ -111,7 +111,14 @@ def main(argv=None) -> int:
         lzs = [r["final_log_z"] for r in got
                if r["final_log_z"] is not None and math.isfinite(r["final_log_z"])]
         spread = max(lzs) - min(lzs) if len(lzs) > 1 else 0.0
-        same = "yes" if len(finals) == 1 else ("tie (within 2 nats)" if spread <= TIE_NATS else "NO")
+        if len(got) < 2:
+            same = "one start run"
+        elif len(finals) == 1:
+            same = "yes"
+        elif len(lzs) < len(got):
+            same = "NO (a final model's evidence failed)"
+        else:
+            same = "tie (within 2 nats)" if spread <= TIE_NATS else "NO"
         cells = [f"{r['final_model']} (log Z {r['final_log_z']:.1f}{', DEFECT' if r['defects'] else ''})"
                  if r else "-" for r in rs]
         rows.append(f"| {n} | " + " | ".join(cells) + f" | {same} | {spread:.1f} | "
