@@ -10,7 +10,9 @@ only the base model the data was simulated from), runs :func:`bayes_emt.discover
 each, and scores: the right physics ids (every true effect named, nothing else), the reported
 band overlapping the true band (where the effect changes ``Y`` by more than the noise), the time.
 Null cases must give no finding; ``--null-seeds`` more null recordings give the false-finding
-rate. Each case's result is written as it finishes (``cases/NAME.json``) and reused on a re-run
+rate. The instrument-step recall cases (:func:`step_cases`, NL(5) and UD plants, phase steps 5-25
+times the noise) are among the cases; ``scripts/discovery_artifact_recall.py`` scores them alone.
+Each case's result is written as it finishes (``cases/NAME.json``) and reused on a re-run
 (resume); the score table is ``scores.md`` and ``scores.json`` in ``--out``.
 """
 
@@ -179,7 +181,27 @@ def cases() -> list[dict]:
             expect=["semi_inductance"],
             narrow=["second_resonance"],
         ),
-    ]
+    ] + step_cases()
+
+
+#: the instrument-step recall cases (issue 35): NL(5) and UD plants at 0.2 % noise, a range switch at
+#: 3000 rad/s, phase steps 5, 10 and 25 times the noise with magnitude steps 1 or 3 times (each phase
+#: level with both magnitudes across the two plants), two seeds each: 12 cases, 8 with a phase step
+#: of at least 10 times the noise; the diagnosis starts from the plant's base model
+STEP_NOISE = 0.002
+STEP_LEVELS = {"NL": ((5, 1), (10, 3), (25, 1)), "UD": ((5, 3), (10, 1), (25, 3))}
+STEP_SEEDS = (1, 2)
+
+
+def step_cases() -> list[dict]:
+    out = []
+    for base, levels in STEP_LEVELS.items():
+        for px, mx in levels:
+            for seed in STEP_SEEDS:
+                eff = {"omegas": 3000.0, "delta_s": mx * STEP_NOISE, "psi_s": px * STEP_NOISE}
+                out.append(case(f"step_{base}_phase{px}x_mag{mx}x_s{seed}", base, dict(PAPER_TABLES[base]),
+                                {"measurement_artifact": eff}, STEP_NOISE, PAPER_GRID, seed=seed))
+    return out
 
 
 def _spec(c) -> str:
@@ -226,6 +248,10 @@ def overlaps(a, b) -> bool:
     return a is not None and b is not None and a[0] <= b[1] and b[0] <= a[1]
 
 
+#: the diagnosis's worker processes (``--workers``; None: its default)
+WORKERS = None
+
+
 def run_case(c, out: Path) -> dict:
     path = out / "cases" / f"{c['name']}.json"
     if path.exists():
@@ -233,7 +259,7 @@ def run_case(c, out: Path) -> dict:
     model, vals, meas = simulate_case(c)
     start = parse_model_spec("NL(5)" if c["start"] == "NL" else c["start"])
     t, cpu = time.perf_counter(), time.process_time()
-    d = diagnose(meas, start, seed=0)
+    d = diagnose(meas, start, seed=0, workers=WORKERS)
     seconds, cpu = time.perf_counter() - t, time.process_time() - cpu
     # a joint finding "a+b" names both terms
     found = [p for f in d.findings for p in f.physics.split("+")]
@@ -387,6 +413,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="scripts/results/discovery")
     ap.add_argument("--only", nargs="*", default=None)
     ap.add_argument("--null-seeds", type=int, default=20)
+    ap.add_argument("--workers", type=int, default=None, help="the diagnosis's worker processes")
     ap.add_argument("--nulls-only", action="store_true", help="run only the null seeds")
     ap.add_argument("--forced-band-nulls", type=int, default=0, metavar="N",
                     help="also rank every candidate on N null recordings with a band forced over the whole "
@@ -394,6 +421,8 @@ def main(argv=None) -> int:
     ap.add_argument("--report-only", action="store_true",
                     help="score the cases already finished in --out (run nothing new)")
     a = ap.parse_args(argv)
+    global WORKERS
+    WORKERS = a.workers
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     if a.forced_band_nulls:

@@ -48,6 +48,7 @@ from .name import (
     rank_candidates,
 )
 from .prefer import change_band, check_setup, choose, narrow_mode_note, setup_excludes, stability_review
+from .sanity import back_off, structure_note
 from .shape import describe_shape, residual_shape
 
 __all__ = ["Finding", "Diagnosis", "diagnose", "preferred_base_model", "BASELINE_CANDIDATES"]
@@ -502,6 +503,30 @@ def _mechanics(fit: FitResult, with_se: bool = False) -> dict:
 MOVE_SE = 2.0
 
 
+def _sanity(meas, baseline, history, findings, fit, lz):
+    """The sanity check of the final model (:mod:`.sanity`): ``None`` when it has no defect, else
+    ``(findings, fit, log Z, line)`` of the best model the search reached without one (the latest in
+    the order reached) and the one line saying what was refused and why."""
+    def added(f):
+        return [n for n in f.model.names if n not in baseline.model.names]
+
+    hist = [(f, added(f)) for f, _, _ in history[:-1]] + [(fit, added(fit))]
+    i, bad = back_off(hist)
+    if not bad:
+        return None
+    if i is None:  # nothing to back off to: said, the fit kept
+        return list(findings), fit, lz, (
+            f"the final model {fit.model.label} is broken physics: {'; '.join(bad)}; no model the search "
+            "reached is free of it (the start included): its values are not a driver's, do not use them")
+    keep_fit, keep_lz, _ = history[i]
+    kept = {id(h[2]) for h in history[1:i + 1]}
+    dropped = [f.physics for f in findings if id(f) not in kept]
+    line = (f"refused the final model {fit.model.label}: {'; '.join(bad)} (broken physics, not a "
+            f"driver); backed off to {keep_fit.model.label}, the best model the search reached without "
+            "that defect" + (f" (dropped: {', '.join(dropped)})" if dropped else ""))
+    return [f for f in findings if id(f) in kept], keep_fit, keep_lz, line
+
+
 def moved_parameters(before: FitResult, after: FitResult) -> dict:
     """``{name: {"before", "after", "relative_change", "stderr_before", "beyond_stderr"}}`` of the
     plant parameters (R0, ζ, ω0, φ̄ and fs [Hz] and Qms by the Thiele–Small convention,
@@ -708,6 +733,7 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
     resonance = locate_resonance(meas)
     omega_r = None if resonance is None else resonance.omega
     findings, locations, tried = [], [], []
+    history = [(fit, lz, None)]  # the start and each accepted model, for the sanity check
     setup_notes: list[str] = []
     loc0 = loc = None
     unexplained_bands: list[Band] = []
@@ -832,10 +858,21 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
             )
         say(findings[-1].explanation)
         fit, lz = c.fit, c.log_z
+        history.append((fit, lz, findings[-1]))
     # a patch whose values the rounds do not agree on is flagged, dropped when not needed
     findings, fit, lz, stab = stability_review(meas, findings, fit, lz, lambda m, v: fit_admittance(
         meas, m, initial=v), lambda f: log_evidence(meas, f))
     warn.extend(stab)
+    refused = _sanity(meas, baseline, history, findings, fit, lz)
+    if refused is not None:
+        changed = refused[1] is not fit
+        findings, fit, lz, line = refused
+        say(line)
+        warn.append(line)
+    if refused is not None and changed:
+        loc = locate_mismatch(meas, fit.model, fit.theta, alpha=alpha, seed=seed + len(locations))
+        locations.append({"round": len(locations), "model": fit.model.label, **loc.to_json_dict()})
+        unexplained_bands = list(loc.bands)
     unexplained = []
     for band in unexplained_bands:
         shape = residual_shape(meas, fit.model, fit.theta, band)
@@ -848,6 +885,9 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
                 "shape": shape,
             }
         )
+    note = structure_note(refused is not None and refused[3], unexplained, fit)
+    if note:
+        warn.append(note)
     if len(findings) == max_rounds and loc is not None and loc.bands:
         warn.append(f"stopped after {max_rounds} findings with mismatch left")
     r0_warning = r0_move_warning(baseline, fit)

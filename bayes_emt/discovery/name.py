@@ -281,6 +281,8 @@ def fit_candidate(
             fits.append(fit_admittance(meas, new, initial=s, warm=warm))
         except (FitError, ValueError):
             continue
+    if term.step_at and term.stage == "measurement":
+        fits += _divided_fits(meas, current, new, starts[:STARTS_POLISHED], term.step_at)
     ok = [f for f in fits if not f.info.get("resonance_mismatch")] or fits
     if not ok:
         return []
@@ -296,6 +298,56 @@ def fit_candidate(
         return [(f, fit_log_evidence(meas, f)) for f in distinct]
     best = min(ok, key=lambda f: f.chi2)
     return [(best, fit_log_evidence(meas, best) if evidence else None)]
+
+
+#: points either side of a step start searched for its discontinuity (:func:`_divided_fits`)
+STEP_SHIFT = 3
+
+
+def _divided_fits(meas: Measurement, current: FitResult, new: Model, starts, step_at: str) -> list[FitResult]:
+    """A measurement step's fits that do not inherit the current fit's valley: the current fit has
+    absorbed the unexplained step into the device's parameters (an NL(5) ring ladder bends its phase
+    to follow a 0.05 rad step), and a polish warm-started from it keeps that bend, so the step no
+    longer pays (an NL(5) plant's 25-sigma phase step at 3000 rad/s was lost to the rings). For each
+    start the step it proposes (``Y_new(start) / Y_current(start)``: the term multiplies ``Y``) is divided out
+    of the data, the current model is fitted afresh to the corrected data (automatic start), and the
+    model with the step is polished on the measured data from that fit and the start's step."""
+    from .prefer import STEP_CHI2, local_step_fit
+
+    out = []
+    cur = current.model.bind(meas.omega)
+    full = new.bind(meas.omega)
+    shared = [new.names.index(n) for n in current.model.names]
+    for s in starts:
+        s = np.asarray(s, float)
+        # the start's step moved to the strongest local discontinuity within STEP_SHIFT points
+        # (the start's median windows place it a point or two off); a start with none there is
+        # not refitted: a step without one is refused by the same local test whatever the fit
+        # (:func:`.prefer.step_evidence`)
+        i = new.names.index(step_at)
+        k0 = int(np.searchsorted(meas.omega, s[i]))
+        best = None
+        for k in range(max(k0 - STEP_SHIFT, 1), min(k0 + STEP_SHIFT + 1, meas.n_points)):
+            ws = float(np.sqrt(meas.omega[k - 1] * meas.omega[k]))
+            est = local_step_fit(meas, current, ws)
+            if est is not None and est[1] >= STEP_CHI2 and (best is None or est[1] > best[1]):
+                best = (ws, est[1])
+        if best is None:
+            continue
+        s[i] = best[0]
+        with np.errstate(all="ignore"):
+            ratio = full.admittance(meas.omega, s) / cur.admittance(meas.omega, s[shared])
+        if not np.all(np.isfinite(ratio)) or np.any(ratio == 0):
+            continue
+        try:
+            corrected = Measurement(meas.omega, meas.Y / ratio, meas.weights, dict(meas.meta))
+            base = fit_admittance(corrected, current.model)
+            init = s.copy()
+            init[shared] = base.theta
+            out.append(fit_admittance(meas, new, initial=init, warm=True))
+        except (FitError, ValueError):
+            continue
+    return out
 
 
 class FitCache:
@@ -562,7 +614,7 @@ def _candidates(meas, current, band, sigma_rel, physics, res, dt, current_log_z,
         )
         bad = bad or _at_prior_bound(fit, new_names)
         if physics != EDDY_PHYSICS:  # a coil model's escalation re-fits R0 with the coil
-            bad = bad or _takes_r0(current, fit) or _moves_fs(current, fit, ids)
+            bad = bad or _takes_r0(current, fit, meas) or _moves_fs(current, fit, ids)
         patch = is_patch(physics, fit)
         problem = None
         if patch:
@@ -663,10 +715,17 @@ def _at_prior_bound(fit: FitResult, new_names: list[str]) -> str | None:
 R0_FACTOR_MAX = 0.5
 
 
-def _takes_r0(current: FitResult, fit: FitResult) -> str | None:
+def _takes_r0(current: FitResult, fit: FitResult, meas: Measurement | None = None) -> str | None:
     a, b = current.parameters.get("R0"), fit.parameters.get("R0")
     if not a or a <= 0 or b is None or R0_FACTOR_MAX <= b / a <= 1 / R0_FACTOR_MAX:
         return None
+    if meas is not None and b > 0:
+        # a current fit that missed the DC resistance (a lumped driver fitted to two drivers in
+        # parallel put R0 at 3.6 ohm where the data's real part falls to 1.75 ohm): a term that
+        # brings R0 closer to the data's resistance floor min Re Z restores it, it does not take it
+        floor = float(np.min(meas.Z.real))
+        if floor > 0 and abs(math.log(b / floor)) < abs(math.log(a / floor)) and b <= 1.05 * floor:
+            return None
     return (f"it moves R0 by {100 * (b - a) / a:+.1f} % ({a:.4g} -> {b:.4g} ohm), beyond a factor "
             f"{1 / R0_FACTOR_MAX:g}: the term takes over the DC resistance instead of explaining the band")
 

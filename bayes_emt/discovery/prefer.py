@@ -83,6 +83,8 @@ __all__ = [
     "two_impedance_maxima",
     "is_patch",
     "step_evidence",
+    "local_step",
+    "local_step_fit",
     "change_band",
     "BROADBAND_DECADES",
     "choose",
@@ -190,45 +192,64 @@ def is_patch(physics: str, fit: FitResult) -> bool:
 
 def step_evidence(meas: Measurement, current: FitResult, fit: FitResult, physics: str) -> str | None:
     """For a term that puts a step between two points (:attr:`~bayes_emt.models.term.Term.step_at`):
-    ``None`` when the measured points are discontinuous there, else why not. In
-    ``ln(Y/Y_current)`` (the current fit removes the resonance's shape) over ``_STEP_HALF`` points
-    either side, a quadratic in ln ω plus a step is fitted to each part; the step must have
-    ``χ²₂ ≥`` :data:`STEP_CHI2` against the point noise (σ from second differences) and at least half
-    the fitted step's size along its direction."""
+    ``None`` when the measured points are discontinuous there, else why not (:func:`local_step`)."""
     values = fit.model.as_dict(fit.theta)
     for t in _terms(physics, fit):
         if not t.step_at:
             continue
-        ws = values[t.step_at]
-        k = int(np.searchsorted(meas.omega, ws))  # first point above the step
-        h = _STEP_HALF
-        if k < h or k > meas.n_points - h:
-            return (f"{physics}: its step at {ws / (2 * math.pi):.4g} Hz lies within {h} points of the "
-                    "data's end")
-        sl = slice(k - h, k + h)
-        with np.errstate(all="ignore"):
-            Yc = current.model.bind(meas.omega).admittance(meas.omega, current.theta)
-        lr = np.log(meas.Y[sl] / Yc[sl])
-        x = np.log(meas.omega[sl] / ws)
-        A = np.stack([np.ones_like(x), x, x * x, (np.arange(2 * h) >= h).astype(float)], axis=1)
-        coef, *_ = np.linalg.lstsq(A, np.stack([lr.real, lr.imag], axis=1), rcond=None)
-        step = complex(coef[3, 0], coef[3, 1])
-        # point noise: second differences of the residual over the whole record
-        with np.errstate(all="ignore"):
-            rel = relative_residual(current.model, current.theta, meas)
-        d2 = np.diff(np.stack([rel.real, rel.imag]), n=2, axis=-1)
-        sig = float(1.4826 * np.median(np.abs(d2 - np.median(d2, axis=-1, keepdims=True))) / math.sqrt(6))
-        var = float(np.linalg.pinv(A.T @ A)[3, 3]) * sig * sig
-        chi2 = abs(step) ** 2 / max(var, 1e-300)
         fitted = [p for p in t.params.names if p != t.step_at]
         # the fitted step in ln Y: ln(1 + δ) + jψ for a gain-and-phase step (first two other params)
-        target = complex(math.log1p(values[fitted[0]]), values[fitted[1]]) if len(fitted) >= 2 else step
-        along = (step * target.conjugate()).real / max(abs(target), 1e-300)
-        if chi2 < STEP_CHI2 or along < 0.5 * abs(target):
-            return (f"{physics}: no discontinuity between the measured points at "
-                    f"{ws / (2 * math.pi):.4g} Hz (local step {100 * abs(step):.2g} % vs the fitted "
-                    f"{100 * abs(target):.2g} %, chi2 {chi2:.3g} < {STEP_CHI2:.3g} needed): a smooth "
-                    "misfit, not an instrument step")
+        target = complex(math.log1p(values[fitted[0]]), values[fitted[1]]) if len(fitted) >= 2 else None
+        problem = local_step(meas, current, values[t.step_at], target, physics)
+        if problem:
+            return problem
+    return None
+
+
+def local_step_fit(meas: Measurement, current: FitResult, ws: float) -> tuple[complex, float] | None:
+    """The local step estimate at ``ws`` [rad/s] in ``ln Y`` and its χ² (2 dof) against the point
+    noise (:func:`local_step`); ``None`` within ``_STEP_HALF`` points of the data's end."""
+    k = int(np.searchsorted(meas.omega, ws))  # first point above the step
+    h = _STEP_HALF
+    if k < h or k > meas.n_points - h:
+        return None
+    sl = slice(k - h, k + h)
+    with np.errstate(all="ignore"):
+        Yc = current.model.bind(meas.omega).admittance(meas.omega, current.theta)
+    lr = np.log(meas.Y[sl] / Yc[sl])
+    x = np.log(meas.omega[sl] / ws)
+    A = np.stack([np.ones_like(x), x, x * x, (np.arange(2 * h) >= h).astype(float)], axis=1)
+    coef, *_ = np.linalg.lstsq(A, np.stack([lr.real, lr.imag], axis=1), rcond=None)
+    step = complex(coef[3, 0], coef[3, 1])
+    # point noise: second differences of the residual over the whole record
+    with np.errstate(all="ignore"):
+        rel = relative_residual(current.model, current.theta, meas)
+    d2 = np.diff(np.stack([rel.real, rel.imag]), n=2, axis=-1)
+    sig = float(1.4826 * np.median(np.abs(d2 - np.median(d2, axis=-1, keepdims=True))) / math.sqrt(6))
+    var = float(np.linalg.pinv(A.T @ A)[3, 3]) * sig * sig
+    return step, abs(step) ** 2 / max(var, 1e-300)
+
+
+def local_step(meas: Measurement, current: FitResult, ws: float, target: complex | None,
+               physics: str) -> str | None:
+    """``None`` when the measured points are discontinuous at ``ws`` [rad/s], else why not. In
+    ``ln(Y/Y_current)`` (the current fit removes the resonance's shape) over ``_STEP_HALF`` points
+    either side, a quadratic in ln ω plus a step is fitted to each part; the step must have
+    ``χ²₂ ≥`` :data:`STEP_CHI2` against the point noise (σ from second differences) and at least half
+    the size of ``target`` (the step in ln Y the term proposes; ``None``: the local estimate) along
+    its direction."""
+    est = local_step_fit(meas, current, ws)
+    if est is None:
+        return (f"{physics}: its step at {ws / (2 * math.pi):.4g} Hz lies within {_STEP_HALF} points of "
+                "the data's end")
+    step, chi2 = est
+    target = step if target is None else target
+    along = (step * target.conjugate()).real / max(abs(target), 1e-300)
+    if chi2 < STEP_CHI2 or along < 0.5 * abs(target):
+        return (f"{physics}: no discontinuity between the measured points at "
+                f"{ws / (2 * math.pi):.4g} Hz (local step {100 * abs(step):.2g} % vs the fitted "
+                f"{100 * abs(target):.2g} %, chi2 {chi2:.3g} < {STEP_CHI2:.3g} needed): a smooth "
+                "misfit, not an instrument step")
     return None
 
 

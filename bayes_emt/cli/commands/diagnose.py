@@ -2,11 +2,17 @@
 
 Locates bands where the model and the recording differ beyond the noise (a scan whose family-wise
 false-alarm rate is calibrated by simulation from the fitted model), names the catalogue physics
-that explains each, adds it, and repeats until no significant mismatch remains. Without
-``--model`` it starts from the base model the evidence prefers (I, II, III, UD by Laplace log Z).
-Prints each finding in plain words (band in Hz, Δ log Z in nats, the band's χ² before and after,
-parameters that moved) and what stays unexplained; ``--json`` writes the diagnosis record
-(``final_model`` is a spec that fit, sample, added-mass and shunt accept), ``--plot`` the
+that explains each, adds it, and repeats until no significant mismatch remains. Without ``--model``
+it starts from the base model the evidence prefers (I, II, III, UD by Laplace log Z). A final
+model that is broken physics (a parameter at its prior's edge, the driver's resonance merged with
+another mode, Thiele-Small values outside physical ranges) is refused: the search backs off to the
+best model it reached without the defect and says so in one line.
+Prints at most 20 lines in the driver's terms: the start and final model, the final Thiele-Small
+values, each finding with its band in Hz and its effect on the Thiele-Small values, box terms
+(fb in Hz) and the coil's inductance and loss, the unexplained bands, the warnings that change a
+decision. ``--verbose`` prints the statistics behind them (log evidence in nats, the band's chi2
+before and after, every candidate tried) and the search's progress; ``--json`` writes the whole
+record (``final_model`` is a spec that fit, sample, added-mass and shunt accept), ``--plot`` the
 residuals before/after with the bands shaded and a Bode overlay.
 Exit status 0 with or without findings and warnings; 1 when the time budget cut the search short or
 the final fit failed; 2 on a user error.
@@ -148,7 +154,7 @@ def run(args) -> int:
         setup=args.setup,
         exclude_band=args.exclude_band,
         workers=args.workers,
-        progress=None if args.quiet else (lambda msg: print("  " + msg, flush=True)),
+        progress=(lambda msg: print("  " + msg, flush=True)) if args.verbose else None,
         **({} if args.per_decade is None else {"per_decade": args.per_decade or None}),
     )
     d = diagnose(meas, model, **settings)
@@ -163,6 +169,41 @@ def run(args) -> int:
         f"{meas.source}: {meas.n_points} points{thinned}, {meas.f_hz[0]:.4g}..{meas.f_hz[-1]:.4g} Hz; "
         f"{d.seconds:.0f} s"
     )
+    if not args.verbose:
+        from ...discovery.summary import MAX_LINES, summary_lines
+
+        for line in summary_lines(d, args.setup, max_lines=MAX_LINES - 1,
+                                  f_range=(float(meas.f_hz[0]), float(meas.f_hz[-1]))):
+            print(line)
+    else:
+        _print_details(d)
+    if args.json:
+        d.save(args.json)
+        print(f"wrote {args.json}")
+    if args.plot:
+        from ...plotting import save_figure
+        from ...plotting.discovery import plot_bode_overlay, plot_residuals
+
+        folder = Path(args.plot)
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, fig in (
+            (PLOT_NAMES[0], plot_residuals(d, meas)),
+            (PLOT_NAMES[1], plot_bode_overlay(d, meas)),
+        ):
+            print(f"wrote {save_figure(fig, folder / name)}")
+    # exit 1 only when the result is not to be trusted (a budget cut, a final fit that failed, a final
+    # model that is broken physics with nothing sound to back off to); findings and warnings alone, and a
+    # refused final model the search backed off from, are a delivered result (exit 0)
+    from ..exitcodes import status
+
+    rms = d.final_fit.rms_rel_residual
+    broken = any(w.startswith("the final model") and "is broken physics" in w for w in d.warnings)
+    return status(d.budget_hit or broken or not d.final_fit.success
+                  or not (rms == rms and rms != float("inf")))
+
+
+def _print_details(d) -> None:
+    """The verbose output: each finding's statistics, the joint checks, every warning."""
     print(
         f"start {d.baseline_model} (rms relative residual {100 * d.baseline_fit.rms_rel_residual:.3g} %) -> "
         f"final {d.final_model} ({100 * d.final_fit.rms_rel_residual:.3g} %)"
@@ -195,23 +236,3 @@ def run(args) -> int:
                   f"consistency p {a['consistency_p_value']:.3g}")
     for w in d.warnings:
         print("warning: " + w)
-    if args.json:
-        d.save(args.json)
-        print(f"wrote {args.json}")
-    if args.plot:
-        from ...plotting import save_figure
-        from ...plotting.discovery import plot_bode_overlay, plot_residuals
-
-        folder = Path(args.plot)
-        folder.mkdir(parents=True, exist_ok=True)
-        for name, fig in (
-            (PLOT_NAMES[0], plot_residuals(d, meas)),
-            (PLOT_NAMES[1], plot_bode_overlay(d, meas)),
-        ):
-            print(f"wrote {save_figure(fig, folder / name)}")
-    # exit 1 only when the result is not to be trusted (a budget cut, a final fit that failed);
-    # findings and warnings alone are a delivered result (exit 0)
-    from ..exitcodes import status
-
-    rms = d.final_fit.rms_rel_residual
-    return status(d.budget_hit or not d.final_fit.success or not (rms == rms and rms != float("inf")))
