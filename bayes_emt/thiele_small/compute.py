@@ -89,6 +89,12 @@ MODEL_SPREAD_METHOD = (
     f"odds) is at least {SPREAD_MIN_PROBABILITY:g}; candidates whose evidence could not be computed are kept "
     "unweighted")
 DEFAULT_SPREAD_BASES = ("II", "III", "UD")
+#: what each noise kind means, in the result's inputs
+NOISE_DESCRIPTION = {
+    "correlated": "instrument noise plus a model discrepancy correlated over log-frequency "
+                  "(Ornstein-Uhlenbeck, size and correlation length inferred): intervals that include the "
+                  "model's misfit",
+    "white": "independent errors at every frequency: the intervals if the model were exact"}
 _LAPLACE_DRAWS = 4000
 
 
@@ -144,6 +150,7 @@ class _Inputs:
     seed: int
     settings: object
     evidence: bool = True  # compute each model's Laplace evidence (only needed for the model spread)
+    noise: str = "correlated"  # the likelihood's noise (bayes_emt.inference.discrepancy)
 
 
 def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
@@ -200,18 +207,18 @@ def select_spread_models(records: list[dict]) -> list[dict]:
     return out
 
 
-def _single_evidence(meas, fit, prior_model) -> float:
+def _single_evidence(meas, fit, prior_model, noise: str = "white") -> float:
     from ..evidence.fit_evidence import fit_log_evidence
     from ..inference.likelihood import Likelihood
 
     try:
-        ev = fit_log_evidence(meas, fit, lik=Likelihood(prior_model, meas))
+        ev = fit_log_evidence(meas, fit, lik=Likelihood(prior_model, meas, noise=noise))
     except (ValueError, FloatingPointError, np.linalg.LinAlgError):
         return float("nan")
     return float(ev.log_z)
 
 
-def _joint_evidence(runs, mfit, prior_model) -> float:
+def _joint_evidence(runs, mfit, prior_model, noise: str = "white") -> float:
     """Laplace log Z of the joint added-mass likelihood (each run's noise scales sampled), started
     at the joint least-squares fit."""
     import warnings
@@ -219,17 +226,19 @@ def _joint_evidence(runs, mfit, prior_model) -> float:
     from ..added_mass.multi import MultiMassLikelihood, MultiMassModel
     from ..evidence.laplace import laplace_evidence
     from ..evidence.warp import Warp
-    from ..inference.start import noise_start
+    from ..inference.start import extra_noise_start, noise_start
 
     if mfit.cov_z is None or not np.all(np.isfinite(mfit.cov_z)):
         return float("nan")
-    lik = MultiMassLikelihood(MultiMassModel(prior_model, mfit.joint.deltas), tuple(runs))
+    lik = MultiMassLikelihood(MultiMassModel(prior_model, mfit.joint.deltas), tuple(runs), noise)
     p = len(mfit.joint.params)
     z0, spread = [mfit.joint.params.to_z(mfit.theta)], []
-    for meas, rms in zip(runs, mfit.rms_rel_residual, strict=True):
+    for rl, th, meas, rms in zip(lik.liks, lik.joint.thetas(mfit.theta[None, :]), runs, mfit.rms_rel_residual,
+                                 strict=True):
         c, s = noise_start(rms, float(np.min(np.abs(meas.Y))))
-        z0.append(np.asarray(c, float))
-        spread += s
+        ce, se = extra_noise_start(rl, th[0])
+        z0.append(np.asarray(c + ce, float))
+        spread += s + se
     z0 = np.concatenate(z0)
     scale = np.zeros((z0.size, z0.size))
     scale[:p, :p] = mfit.cov_z
@@ -274,7 +283,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         else:
             cut = meter is not None and meter.cut
             post = sample_posterior(meas, prior_model, fit=held_fit(fit, meter) if cut else fit,
-                                    seed=inp.seed, settings=inp.settings, progress=False)
+                                    seed=inp.seed, settings=inp.settings, progress=False, noise=inp.noise)
             if cut:
                 post = cut_posterior(post, fit, meter, inp.seed)
             if not post.converged:
@@ -285,7 +294,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             theta = post.theta()
         rec = {"rms": fit.rms_rel_residual,
                "undetermined": undetermined(fit.model.params, fit.theta, fit.cov_z),
-               "log_z": _single_evidence(meas, fit, prior_model) if inp.evidence else float("nan")}
+               "log_z": _single_evidence(meas, fit, prior_model, inp.noise) if inp.evidence else float("nan")}
         return fit.model, theta, point, rec
 
     if method == "free_air":
@@ -319,7 +328,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         else:
             pm = MultiMassModel(prior_model, jm.deltas).model
             x, info = sample_multi_mass(runs, deltas, pm, fit=mfit, seed=inp.seed, settings=inp.settings,
-                                        meter=meter)
+                                        meter=meter, noise=inp.noise)
             if not info["converged"]:
                 warns.append({"code": "not_converged", "model": model.label,
                               "short": "the joint posterior did not meet the stopping rule",
@@ -331,7 +340,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             out.append(_complete(free_air(model, theta), model, theta, inp, mms=xx[:, 0]))
         rec = {"model": model.label, "rms": float(np.sqrt(np.mean(np.square(mfit.rms_rel_residual)))),
                "undetermined": undetermined(jm.params, mfit.theta, mfit.cov_z),
-               "log_z": _joint_evidence(runs, mfit, prior_model) if inp.evidence else float("nan")}
+               "log_z": _joint_evidence(runs, mfit, prior_model, inp.noise) if inp.evidence else float("nan")}
         return out[0], out[1], rec
     # added volume
     bound, theta, point, rec_b = single(inp.meas, "free air")
@@ -386,7 +395,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
                  air_density: float = 1.18, sound_speed: float = 343.0, fast: bool = False, seed: int = 0,
                  models_for_spread: Sequence | None = None, f_range_hz: tuple | None = None,
                  exclude_band: Sequence | None = None,
-                 read_options: dict | None = None, settings=None) -> ThieleSmall:
+                 read_options: dict | None = None, settings=None, noise: str = "correlated") -> ThieleSmall:
     """Thiele–Small parameters with 90 % intervals and model spread (module docstring).
 
     Parameters
@@ -409,6 +418,9 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
         (:meth:`~bayes_emt.measurement.Measurement.exclude_bands`: a cone break-up, a surround dip).
     read_options : keyword arguments of :func:`~bayes_emt.io.read_measurement` for file paths.
     settings : :class:`~bayes_emt.inference.sampling.SamplerSettings` (default the T/S budget).
+    noise : ``"correlated"`` (default: the residual is instrument noise plus a model discrepancy
+        correlated over log-frequency, :mod:`bayes_emt.inference.discrepancy`) or ``"white"``
+        (independent errors: the intervals if the model were exact).
 
     Returns
     -------
@@ -447,8 +459,10 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"box volume must be a positive number of m^3, got {vb!r}")
         bx = (_measurement(rec, "box", read_options, f_range_hz, exclude_band), float(vb))
     method = "added_mass" if lm else "added_volume" if bx else "free_air"
+    if noise not in ("correlated", "white"):
+        raise ValueError(f"noise must be 'correlated' or 'white', got {noise!r}")
     inp = _Inputs(meas, lm, bx, sd, re_t, mms, bl, float(air_density), float(sound_speed), int(seed),
-                  settings if settings is not None else _ts_sampler())
+                  settings if settings is not None else _ts_sampler(), noise=noise)
     candidates = _spread_models(main, models_for_spread)
     inp.evidence = bool(candidates)
     warns: list[dict] = []
@@ -515,6 +529,7 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
               "re": None if re_t is None else {"ohm": re_t.value, "sd_ohm": re_t.sd, "mode": re_t.mode},
               "mms_kg": mms, "bl_tm": bl, "air_density_kg_m3": inp.rho, "sound_speed_m_s": inp.c,
               "uncertainty": "laplace" if fast else "posterior", "seed": int(seed),
+              "noise": noise, "noise_model": NOISE_DESCRIPTION[noise],
               "model_spread_method": MODEL_SPREAD_METHOD,
               "model_spread": {
                   "candidates": [r["model"] for r in records],

@@ -76,6 +76,11 @@ def register(sub) -> None:
     p.add_argument("--max-steps", type=int_at_least(1), default=20000, help="step budget (default 20000)")
     p.add_argument("--likelihood", choices=["gaussian", "student"], default="gaussian",
                    help="noise distribution of the real and imaginary parts (student: robust to outliers)")
+    p.add_argument("--noise", choices=["correlated", "white"], default=None,
+                   help="correlated (default with the gaussian likelihood): instrument noise plus a model "
+                        "discrepancy correlated over log-frequency, so the intervals include the model's "
+                        "misfit; white (the only choice with --likelihood student): independent errors, "
+                        "the posterior if the model were exact")
     p.add_argument("--nu", type=_nu, default=None,
                    help="Student-t degrees of freedom, or 'sample' to sample it (default 4; "
                         "with --likelihood student only)")
@@ -129,7 +134,11 @@ def run(args) -> int:
     loaded = None if args.loaded is None else read_measurement(args.loaded, **opts).select(args.omega_min,
                                                                                           args.omega_max)
     loaded = None if loaded is None else loaded.exclude_bands(args.exclude_band)
-    noise = noise_param_set(args.likelihood, nu)
+    kind = args.noise or ("white" if args.likelihood == "student" else "correlated")
+    if kind == "correlated" and args.likelihood == "student":
+        raise ValueError("--noise correlated needs the gaussian likelihood; use --noise white with "
+                         "--likelihood student")
+    noise = noise_param_set(args.likelihood, nu, kind)
     physical = None
     if args.priors:
         overrides = read_prior_file(args.priors)
@@ -169,7 +178,7 @@ def run(args) -> int:
     detail(args, f"checkpoint {ckpt}, seed {args.seed}, budget {args.max_steps} steps")
     common = {"seed": args.seed, "max_steps": args.max_steps, "checkpoint": ckpt, "resume": args.resume,
               "overwrite": args.overwrite, "progress": False if args.quiet else None,
-              "likelihood": args.likelihood, "nu": nu, "noise_params": noise}
+              "likelihood": args.likelihood, "nu": nu, "noise_params": noise, "noise": kind}
     from ...errors import Interrupted
     from ...inference.sampling import interruption
 

@@ -60,6 +60,10 @@ def register(sub) -> None:
                         "model's physics terms; 'none' for none)")
     p.add_argument("--fast", action="store_true",
                    help="intervals from the least-squares fit's covariance instead of the posterior")
+    p.add_argument("--noise", choices=["correlated", "white"], default="correlated",
+                   help="correlated (default): instrument noise plus a model discrepancy correlated over "
+                        "log-frequency, so the intervals include the model's misfit; white: independent "
+                        "errors, the intervals if the model were exact")
     p.add_argument("--seed", type=seed, default=0, help="sampler seed (default 0)")
     add_data_args(p)
     add_exclude_band_arg(p)
@@ -92,7 +96,7 @@ def run(args) -> int:
                      box=None if args.box is None else (args.box, args.box_volume), sd=args.sd, re=meter,
                      mms=args.mms, bl=args.bl, air_density=args.air_density, sound_speed=args.sound_speed,
                      fast=args.fast, seed=args.seed, models_for_spread=spread, f_range_hz=f_range,
-                     exclude_band=args.exclude_band,
+                     exclude_band=args.exclude_band, noise=args.noise,
                      read_options={"freq_unit": args.freq_unit, "phase_unit": args.phase_unit,
                                    "quantity": args.quantity})
     table = r.summary().splitlines()
