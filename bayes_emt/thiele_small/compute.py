@@ -72,6 +72,7 @@ from ..errors import DataFormatError
 from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
+from .mixture import MIXTURE_METHOD, mixture_weights, weighted_quantiles
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
@@ -89,6 +90,13 @@ MODEL_SPREAD_METHOD = (
     f"odds) is at least {SPREAD_MIN_PROBABILITY:g}; candidates whose evidence could not be computed are kept "
     "unweighted")
 DEFAULT_SPREAD_BASES = ("II", "III", "UD")
+#: the candidates of the evidence-supported default model (``model=None``): the coil models, then
+#: the catalogue terms of :data:`AUTO_TERMS` on the most probable of them
+AUTO_CANDIDATES = ("II", "III", "UD", "NL(3)")
+#: physics terms tried on the most probable coil model (a lossy coil beyond the model's eddy
+#: currents; the suspension's viscoelastic creep below resonance)
+AUTO_TERMS = ("semi_inductance", "suspension_creep")
+_NOISE_SHORT = {"correlated": "with the model-discrepancy likelihood", "white": "white likelihood"}
 #: what each noise kind means, in the result's inputs
 NOISE_DESCRIPTION = {
     "correlated": "instrument noise plus a model discrepancy correlated over log-frequency "
@@ -124,7 +132,9 @@ def _measurement(x, where: str, read_options: dict | None, f_range_hz, exclude_b
     return meas.exclude_bands(exclude_band)
 
 
-def _model(model) -> Model:
+def _model(model) -> Model | None:
+    if model is None or (isinstance(model, str) and model.strip().lower() == "auto"):
+        return None
     return parse_model_spec(model) if isinstance(model, str) else model
 
 
@@ -274,6 +284,17 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         point = fit.theta[None, :]
         if mode == "point":
             theta = point
+        elif mode == "component":  # a mixture component: Laplace at the posterior mode, same likelihood
+            from ..inference.likelihood import Likelihood
+            from .mixture import laplace_draws
+
+            lik = Likelihood(prior_model, meas, noise=inp.noise)
+            theta, why = laplace_draws(lik, fit, _LAPLACE_DRAWS, rng)
+            if theta is None:
+                warns.append({"code": "mixture_component_failed", "model": model.label, "run": label,
+                              "short": "no Gaussian approximation for the model mixture",
+                              "message": f"{model.label} left out of the model mixture: {why}"})
+                theta = point
         elif mode == "laplace":
             if fit.cov_z is None:
                 raise DataFormatError(f"{meas.source}: the fit of {model.label} has no covariance (singular "
@@ -292,7 +313,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                               "message": f"the {label} posterior did not meet the stopping rule: "
                                          f"{post.message}"})
             theta = post.theta()
-        rec = {"rms": fit.rms_rel_residual,
+        rec = {"rms": fit.rms_rel_residual, "draws": mode != "point" and theta is not point,
                "undetermined": undetermined(fit.model.params, fit.theta, fit.cov_z),
                "log_z": _single_evidence(meas, fit, prior_model, inp.noise) if inp.evidence else float("nan")}
         return fit.model, theta, point, rec
@@ -376,6 +397,32 @@ def _volume(bound, bbound, theta, theta_c, vb, inp, warns, model):
     return ts
 
 
+def _rank_key(rec: dict) -> tuple:
+    """Order of candidates for the default model: determined first, then by log evidence."""
+    lz = rec["log_z"]
+    return (not rec["undetermined"], math.isfinite(lz), lz if math.isfinite(lz) else -math.inf)
+
+
+def _fit_candidates(models, method, inp, cand_mode, warns, comps) -> list[str]:
+    """Fit (and, for the mixture, approximate) each of ``models`` into ``comps[label] = (draws,
+    point values, record)``; a candidate that fails is reported in ``warns``. Returns the labels of
+    ``comps`` ranked by :func:`_rank_key`, best first."""
+    for cand in models:
+        if cand.label in comps:
+            continue
+        cw: list[dict] = []
+        try:
+            comps[cand.label] = _estimate(cand, method, inp, cand_mode, cw)
+        except Exception as exc:  # noqa: BLE001 - a candidate that cannot be fitted is reported, not fatal
+            warns.append({"code": "spread_model_failed", "model": cand.label,
+                          "short": "could not be fitted for the model spread",
+                          "message": f"candidate {cand.label} for the model spread could not be "
+                                     f"fitted: {exc}"})
+            continue
+        warns.extend(w for w in cw if w["code"] == "mixture_component_failed")
+    return sorted(comps, key=lambda m: _rank_key(comps[m][2]), reverse=True)
+
+
 def _spread_models(main: Model, models_for_spread) -> list[Model]:
     if models_for_spread is not None:
         cands = [_model(m) for m in models_for_spread]
@@ -390,7 +437,7 @@ def _spread_models(main: Model, models_for_spread) -> list[Model]:
     return out
 
 
-def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple | None = None,
+def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple | None = None,
                  sd: float | None = None, re=None, mms: float | None = None, bl: float | None = None,
                  air_density: float = 1.18, sound_speed: float = 343.0, fast: bool = False, seed: int = 0,
                  models_for_spread: Sequence | None = None, f_range_hz: tuple | None = None,
@@ -401,7 +448,9 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
     Parameters
     ----------
     data : the free-air recording (a :class:`~bayes_emt.measurement.Measurement` or a file path).
-    model : model spec or :class:`~bayes_emt.models.Model` (default ``"UD"``).
+    model : model spec or :class:`~bayes_emt.models.Model`; ``None`` (default) or ``"auto"``: the
+        model the evidence supports among :data:`AUTO_CANDIDATES` and :data:`AUTO_TERMS` on the most
+        probable of them (``models_for_spread`` replaces the candidate list).
     loaded : ``[(recording, delta_m_kg), ...]``: added-mass recordings (method ``added_mass``).
     box : ``(recording, volume_m3)``: a sealed test box of known net volume (``added_volume``).
     sd : effective cone area Sd [m²] (Vas, η0, SPL; needed by ``added_volume`` for Cms, Mms, Bl).
@@ -463,37 +512,68 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
         raise ValueError(f"noise must be 'correlated' or 'white', got {noise!r}")
     inp = _Inputs(meas, lm, bx, sd, re_t, mms, bl, float(air_density), float(sound_speed), int(seed),
                   settings if settings is not None else _ts_sampler(), noise=noise)
-    candidates = _spread_models(main, models_for_spread)
-    inp.evidence = bool(candidates)
     warns: list[dict] = []
     mode = "laplace" if fast else "posterior"
+    # a mixture component per candidate (free air, posterior intervals), else its point values only
+    cand_mode = "component" if method == "free_air" and not fast else "point"
+    auto = main is None
+    comps: dict[str, tuple] = {}
+    if auto:  # the model the evidence supports: rank the candidates first, sample the most probable
+        pool = [parse_model_spec(m) for m in (models_for_spread or AUTO_CANDIDATES)]
+        inp.evidence = True
+        ranked = _fit_candidates(pool, method, inp, cand_mode, warns, comps)
+        if not ranked:
+            names = ", ".join(m.label for m in pool)
+            raise DataFormatError(f"{meas.source}: none of the candidate models {names} could be fitted")
+        best = ranked[0]
+        terms = [parse_model_spec(f"{best}+{t}") for t in AUTO_TERMS if "+" not in best]
+        _fit_candidates(terms, method, inp, cand_mode, warns, comps)
+        main = parse_model_spec(max(comps, key=lambda m: _rank_key(comps[m][2])))
+        candidates = [parse_model_spec(m) for m in comps if m != main.label]
+    else:
+        candidates = _spread_models(main, models_for_spread)
+        inp.evidence = bool(candidates)
+    inp.evidence = inp.evidence and not auto  # auto: the main model's evidence is already known
     draws, point_main, rec_main = _estimate(main, method, inp, mode, warns)
+    inp.evidence = True
 
     # model spread: point values of the adequate, determined, probable candidates (module docstring)
-    records, points = [rec_main], {rec_main["model"]: point_main}
+    records, points, comp_draws = [rec_main], {rec_main["model"]: point_main}, {rec_main["model"]: draws}
+    if auto:
+        rec_main["log_z"] = comps[main.label][2]["log_z"]
     for cand in candidates:
-        try:
-            _, pv, rec = _estimate(cand, method, inp, "point", [])
-        except Exception as exc:  # noqa: BLE001 - a candidate that cannot be fitted is reported, not fatal
-            warns.append({"code": "spread_model_failed", "model": cand.label,
-                          "short": "could not be fitted for the model spread",
-                          "message": f"candidate {cand.label} for the model spread could not be "
-                                     f"fitted: {exc}"})
+        if cand.label not in comps:
+            _fit_candidates([cand], method, inp, cand_mode, warns, comps)
+        if cand.label not in comps:
             continue
+        cd, pv, rec = comps[cand.label]
         records.append(rec)
         points[rec["model"]] = pv
+        if rec.get("draws"):
+            comp_draws[rec["model"]] = cd
     records = select_spread_models(records)
     included = [points[r["model"]] for r in records if r["included"]]
     main_in = records[0]["included"]  # records[0] is the main model
-    better = [r for r in records[1:] if r["probability"] is not None and r["probability"] >= 0.5]
-    if not main_in and better:
+    if sum(r["included"] for r in records) < 2:  # never an empty spread because a filter left one model
+        wide = [points[r["model"]] for r in records if r["adequate"] and r["determined"]]
+        if len(wide) >= 2:
+            included, main_in = wide, True
+    # the mixture: the main model's posterior and the determined candidates' components, by evidence
+    weights = mixture_weights({r["model"]: r["log_z"] for r in records
+                               if r["model"] in comp_draws and (r["determined"] or r is records[0])})
+    if main.label not in weights:
+        weights = {main.label: 1.0}
+    better = [r for r in records[1:] if weights.get(r["model"], 0.0) >= 0.5]
+    if better:
         b = better[0]
+        pb = weights[b["model"]]
         warns.append({"code": "better_model", "short": f"{b['model']} is more probable than {main.label} "
-                      f"(P = {b['probability']:.3g}): consider --model {b['model']}",
-                      "message": f"the candidate {b['model']} explains the data better than {main.label}: "
-                                 f"posterior model probability {b['probability']:.3g} (Laplace evidence, "
-                                 f"equal prior odds); {main.label} is outside the model spread, which shows "
-                                 "the values of the probable candidates; consider --model " + b["model"]})
+                      f"(P = {pb:.3g}): the intervals are the model mixture's; {main.label} alone under "
+                      "model_only", "message": f"the candidate {b['model']} explains the data better than "
+                      f"{main.label}: posterior model probability {pb:.3g} (Laplace evidence, equal prior "
+                      f"odds, {_NOISE_SHORT[noise]}); value and ci90 are the evidence-weighted mixture over "
+                      f"{', '.join(weights)}, and {main.label}'s own values are under model_only; "
+                      "--model " + b["model"] + " samples that model"})
 
     params = {}
     for name in NAMES:
@@ -506,9 +586,19 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
         lo, med, hi = np.quantile(v, [0.05, 0.5, 0.95])
         vals = [float(np.asarray(pv[name]).ravel()[0]) for pv in included if name in pv]
         vals = [x for x in vals if math.isfinite(x)]
-        params[name] = {"value": float(med), "ci90": [float(lo), float(hi)], "unit": UNITS[name],
+        mv, mw = [], []
+        for m, w in weights.items():
+            x = np.asarray(comp_draws[m].get(name, np.nan), float).ravel()
+            if x.size and np.any(np.isfinite(x)):
+                mv.append(x)
+                mw.append(np.full(x.size, w / x.size))
+        mlo, mmed, mhi = (weighted_quantiles(np.concatenate(mv), np.concatenate(mw), [0.05, 0.5, 0.95])
+                          if len(mv) > 1 else (lo, med, hi))
+        params[name] = {"value": float(mmed), "ci90": [float(mlo), float(mhi)], "unit": UNITS[name],
                         "model_spread": [min(vals), max(vals)] if len(vals) > 1 or (vals and not main_in)
-                        else None}
+                        else None,
+                        "model_only": {"model": main.label, "value": float(med),
+                                       "ci90": [float(lo), float(hi)]}}
     if fast:
         warns.append({"code": "fast_intervals", "short": "intervals from the fit's covariance (--fast), not "
                       "the posterior", "message": "intervals from the least-squares fit's Gaussian "
@@ -531,6 +621,9 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
               "uncertainty": "laplace" if fast else "posterior", "seed": int(seed),
               "noise": noise, "noise_model": NOISE_DESCRIPTION[noise],
               "model_spread_method": MODEL_SPREAD_METHOD,
+              "model_choice": "evidence" if auto else "requested",
+              "mixture": {"method": MIXTURE_METHOD if len(weights) > 1 else "the main model alone (no "
+                          "other candidate has a component and an evidence)", "weights": weights},
               "model_spread": {
                   "candidates": [r["model"] for r in records],
                   "included": [r["model"] for r in records if r["included"]],

@@ -39,7 +39,9 @@ def register(sub) -> None:
     p = add_parser(sub, "ts", help="Thiele-Small parameters with credible intervals (free air, added mass, "
                    "added volume)", description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
     p.add_argument("data", help="free-air recording")
-    p.add_argument("--model", default="UD", metavar="SPEC", help="model spec (default UD)")
+    p.add_argument("--model", default=None, metavar="SPEC",
+                   help="model spec (default: the model the evidence supports among II, III, UD, NL(3) and "
+                        "the most probable of them with a semi-inductance or suspension creep)")
     p.add_argument("--loaded", action="append", default=[], metavar="FILE",
                    help="a recording with an added mass (repeat; each needs its --delta-m, in order)")
     p.add_argument("--delta-m", action="append", type=float, default=[], metavar="KG",
@@ -108,6 +110,11 @@ def run(args) -> int:
     used = ", ".join(sp["included"]) or "no model"
     note(args, f"model spread over {used} of {', '.join(sp['candidates'])} "
                f"(model probabilities: {probs}; {r.inputs['model_spread_method']})")
+    mix = r.inputs.get("mixture") or {}
+    if len(mix.get("weights") or {}) > 1:
+        ws = ", ".join(f"{m} {w:.2g}" for m, w in sorted(mix["weights"].items(), key=lambda kv: -kv[1]))
+        print(f"90 % intervals: evidence-weighted mixture over the models (weights {ws}; {r.inputs['noise']} "
+              "noise)")
     if args.json:
         r.save(args.json)
         note(args, f"wrote {args.json}")
