@@ -555,9 +555,11 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
     included = [points[r["model"]] for r in records if r["included"]]
     main_in = records[0]["included"]  # records[0] is the main model
     if sum(r["included"] for r in records) < 2:  # never an empty spread because a filter left one model
-        wide = [points[r["model"]] for r in records if r["adequate"] and r["determined"]]
+        wide = [r for r in records if r["adequate"] and r["determined"]]
         if len(wide) >= 2:
-            included, main_in = wide, True
+            for r in wide:
+                r["included"] = True
+            included, main_in = [points[r["model"]] for r in wide], records[0]["included"]
     # the mixture: the main model's posterior and the determined candidates' components, by evidence
     weights = mixture_weights({r["model"]: r["log_z"] for r in records
                                if r["model"] in comp_draws and (r["determined"] or r is records[0])})

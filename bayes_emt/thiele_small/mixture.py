@@ -39,8 +39,8 @@ def laplace_draws(lik, fit, n: int, rng: np.random.Generator) -> tuple[np.ndarra
     (:func:`~bayes_emt.inference.start.posterior_mode` from the Laplace screen's start). The
     covariance is the inverse Hessian of the log posterior in the model's sampling space with the
     noise parameters at their mode (central differences in coordinates whitened by the fit's
-    covariance). Returns ``(None, why)`` when there is no mode or the Hessian is not positive
-    definite."""
+    covariance); a parameter at a prior bound at the mode (a step leaves the support) is held there.
+    Returns ``(None, why)`` when there is no mode or the Hessian is not positive definite."""
     from ..evidence.fit_evidence import fit_start
     from ..evidence.laplace import hessian_fd
     from ..inference.start import posterior_mode
@@ -53,19 +53,29 @@ def laplace_draws(lik, fit, n: int, rng: np.random.Generator) -> tuple[np.ndarra
             mode = posterior_mode(lik, z0[None, :], scale + 1e-12 * np.eye(lik.ndim))
             L = np.linalg.cholesky(scale[:k, :k] + 1e-12 * np.max(np.abs(np.diag(scale[:k, :k]))) * np.eye(k))
 
-            def f(u):
+            h = 1e-2
+
+            def f(u, free):
                 u = np.atleast_2d(u)
                 z = np.tile(mode, (u.shape[0], 1))
-                z[:, :k] = mode[:k] + u @ L.T
+                z[:, :k] = mode[:k] + u @ L[:, free].T
                 return lik.log_posterior_z(z)
 
-            H, f0, _ = hessian_fd(f, np.zeros(k), 1e-2)
+            # a coordinate whose step leaves the prior's support (a parameter at its bound) is
+            # held at the mode: the approximation is then conditional on it
+            steps = np.vstack([np.eye(k) * h, -np.eye(k) * h])
+            edge = ~np.isfinite(f(steps, np.arange(k)).reshape(2, k)).all(axis=0)
+            free = np.flatnonzero(~edge)
+            if free.size == 0:
+                return None, "every parameter is at a prior bound at the posterior mode"
+            H, f0, _ = hessian_fd(lambda u: f(u, free), np.zeros(free.size), h)
             if not np.isfinite(f0) or not np.all(np.isfinite(H)):
                 return None, "the log posterior is not finite around its mode"
             w, V = np.linalg.eigh(-0.5 * (H + H.T))
             if np.min(w) <= 0:
                 return None, "the Hessian at the posterior mode is not positive definite"
-            cov_u = (V / w) @ V.T
+            cov_u = np.zeros((k, k))
+            cov_u[np.ix_(free, free)] = (V / w) @ V.T
             cov = L @ cov_u @ L.T
             z = rng.multivariate_normal(mode[:k], cov, size=n, method="eigh")
     except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
