@@ -147,12 +147,18 @@ def test_cli_sample_with_priors_json_and_plots(meas_I, tmp_path, capsys):
     # the stopping rule stops only at one of its checks (every SamplerSettings.check_every steps)
     assert rec["model"] == "I" and rec["converged"] is True
     assert rec["n_steps"] % SamplerSettings().check_every == 0
-    assert set(rec["parameters"]) == {"zeta", "omega0", "phi", "R0", "L0", "sigma_rel", "sigma_abs"}
+    # the default likelihood adds the model discrepancy's size and correlation length
+    assert set(rec["parameters"]) == {"zeta", "omega0", "phi", "R0", "L0", "sigma_rel", "sigma_abs",
+                                      "sigma_disc", "ell"}
+    assert rec["noise"] == "correlated"
     assert rec["tau_max"] > 0 and rec["parameters"]["R0"]["ess"] >= 1000
     assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
         "posterior_I_bode.png", "posterior_I_corner.png", "posterior_I_trace.png"]
     back = read_posterior(tmp_path / "r.nc")
     assert back.model.params["R0"].prior.to_dict()["dist"] == "lognormal"
+    assert back.likelihood.noise == "correlated" and back.likelihood.params.names[-2:] == ("sigma_disc", "ell")
+    # the reloaded correlated likelihood reproduces the stored log-likelihood of every draw
+    np.testing.assert_allclose(back.likelihood(back.draws), back.log_lik, rtol=1e-10)
     # user errors: one line, exit 2
     assert main(["sample", str(data), "--model", "I", "--out", str(tmp_path / "r.nc"), "--quiet"]) == 2
     assert "a checkpoint exists" in capsys.readouterr().err

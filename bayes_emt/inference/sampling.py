@@ -590,7 +590,7 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
                      max_steps: int | None = None, checkpoint: str | Path | None = None,
                      resume: bool = False, overwrite: bool = False, progress: bool | None = None,
                      likelihood: LikelihoodKind = "gaussian", nu: float | None = 4.0,
-                     noise_params: ParamSet | None = None, noise: NoiseKind = "correlated",
+                     noise_params: ParamSet | None = None, noise: NoiseKind | None = None,
                      settings: SamplerSettings = SamplerSettings()) -> Posterior:
     """Sample the posterior of ``model`` given ``meas`` with emcee (see the module docstring).
 
@@ -609,9 +609,10 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
     likelihood, nu : ``"gaussian"``, or ``"student"`` with ``nu`` degrees of freedom (``None``:
         sampled).
     noise_params : noise priors (default :func:`~bayes_emt.inference.likelihood.noise_param_set`).
-    noise : ``"correlated"`` (default: the residual is a model discrepancy correlated over
-        log-frequency, :mod:`bayes_emt.inference.discrepancy`) or ``"white"`` (independent errors:
-        the posterior if the model were exact).
+    noise : ``"correlated"`` (the default with the Gaussian likelihood: instrument noise plus a model
+        discrepancy correlated over log-frequency, :mod:`bayes_emt.inference.discrepancy`) or
+        ``"white"`` (independent errors: the posterior if the model were exact; the default, and the
+        only choice, with the Student-t likelihood).
     settings : :class:`SamplerSettings`.
 
     Returns
@@ -620,6 +621,8 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
         Thinned draws after burn-in, diagnostics and provenance; ``converged`` False (with a
         :class:`~bayes_emt.errors.ConvergenceWarning`) when the budget ran out first.
     """
+    if noise is None:
+        noise = "white" if likelihood == "student" else "correlated"
     lik = Likelihood(model, meas, likelihood, nu, noise_params, noise)
     return sample_likelihood(lik, fit=fit, seed=seed, max_steps=max_steps, checkpoint=checkpoint,
                              resume=resume, overwrite=overwrite, progress=progress, settings=settings)
