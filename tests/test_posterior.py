@@ -156,7 +156,8 @@ def test_cli_sample_with_priors_json_and_plots(meas_I, tmp_path, capsys):
         "posterior_I_bode.png", "posterior_I_corner.png", "posterior_I_trace.png"]
     back = read_posterior(tmp_path / "r.nc")
     assert back.model.params["R0"].prior.to_dict()["dist"] == "lognormal"
-    assert back.likelihood.noise == "correlated" and back.likelihood.params.names[-2:] == ("sigma_disc", "ell")
+    assert back.likelihood.noise == "correlated"
+    assert back.likelihood.params.names[-2:] == ("sigma_disc", "ell")
     # the reloaded correlated likelihood reproduces the stored log-likelihood of every draw
     np.testing.assert_allclose(back.likelihood(back.draws), back.log_lik, rtol=1e-10)
     # user errors: one line, exit 2

@@ -45,7 +45,8 @@ model's physics terms, plus the main model itself) that pass three tests, in thi
 
 This is the spread "weighted by evidence": a model the evidence rules out carries no weight, the
 others count whatever their probability (a range, not a mixture). With the main model alone left
-the spread is ``None``; when the main model itself is left out, the spread shows the values of the
+the spread is that model's value alone (``[v, v]``: the evidence leaves no other); when the main
+model itself is left out, the spread shows the values of the
 models that are left (one value possibly) and a ``better_model`` warning names the most probable.
 Every candidate's rms, undetermined parameters, log Z, probability and verdict are in
 ``inputs["model_spread"]``, and the rule in words in ``inputs["model_spread_method"]``. On real
@@ -553,28 +554,25 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
             comp_draws[rec["model"]] = cd
     records = select_spread_models(records)
     included = [points[r["model"]] for r in records if r["included"]]
-    main_in = records[0]["included"]  # records[0] is the main model
-    if sum(r["included"] for r in records) < 2:  # never an empty spread because a filter left one model
-        wide = [r for r in records if r["adequate"] and r["determined"]]
-        if len(wide) >= 2:
-            for r in wide:
-                r["included"] = True
-            included, main_in = [points[r["model"]] for r in wide], records[0]["included"]
     # the mixture: the main model's posterior and the determined candidates' components, by evidence
     weights = mixture_weights({r["model"]: r["log_z"] for r in records
                                if r["model"] in comp_draws and (r["determined"] or r is records[0])})
     if main.label not in weights:
         weights = {main.label: 1.0}
-    better = [r for r in records[1:] if weights.get(r["model"], 0.0) >= 0.5]
+    def prob(r):  # the mixture's weight, else the spread's evidence probability
+        return weights.get(r["model"], r["probability"] if r["probability"] is not None else 0.0)
+
+    better = [r for r in records[1:] if prob(r) >= 0.5]
     if better:
         b = better[0]
-        pb = weights[b["model"]]
+        pb = prob(b)
         warns.append({"code": "better_model", "short": f"{b['model']} is more probable than {main.label} "
                       f"(P = {pb:.3g}): the intervals are the model mixture's; {main.label} alone under "
                       "model_only", "message": f"the candidate {b['model']} explains the data better than "
                       f"{main.label}: posterior model probability {pb:.3g} (Laplace evidence, equal prior "
                       f"odds, {_NOISE_SHORT[noise]}); value and ci90 are the evidence-weighted mixture over "
-                      f"{', '.join(weights)}, and {main.label}'s own values are under model_only; "
+                      f"{', '.join(weights)} (the model spread shows the probable candidates' values), and "
+                      f"{main.label}'s own values are under model_only; "
                       "--model " + b["model"] + " samples that model"})
 
     params = {}
@@ -597,8 +595,9 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
         mlo, mmed, mhi = (weighted_quantiles(np.concatenate(mv), np.concatenate(mw), [0.05, 0.5, 0.95])
                           if len(mv) > 1 else (lo, med, hi))
         params[name] = {"value": float(mmed), "ci90": [float(mlo), float(mhi)], "unit": UNITS[name],
-                        "model_spread": [min(vals), max(vals)] if len(vals) > 1 or (vals and not main_in)
-                        else None,
+                        # never empty because a filter left one model: then that model's value alone,
+                        # and the mixture's weights say the evidence leaves no other
+                        "model_spread": [min(vals), max(vals)] if vals else None,
                         "model_only": {"model": main.label, "value": float(med),
                                        "ci90": [float(lo), float(hi)]}}
     if fast:
