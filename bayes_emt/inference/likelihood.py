@@ -240,8 +240,8 @@ class Likelihood(SamplingSpaceDensity):
 
     def describe(self) -> str:
         """One line naming the noise model (for reports and file attributes)."""
-        corr = ("; correlated over log10 f (Ornstein-Uhlenbeck, correlation length ell [decades] "
-                "inferred): model discrepancy" if self.correlated
+        corr = ("; plus a model discrepancy of relative size sigma_disc correlated over log10 f "
+                "(Ornstein-Uhlenbeck, correlation length ell [decades]; both inferred)" if self.correlated
                 else "; independent across frequencies (white: as if the model were exact)")
         if self.kind == "gaussian":
             return "gaussian, sigma^2 = (sigma_rel |Y_meas|)^2 + sigma_abs^2 per part" + corr

@@ -77,7 +77,8 @@ from .mixture import MIXTURE_METHOD, mixture_weights, weighted_quantiles
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
-__all__ = ["thiele_small", "from_fit", "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES",
+__all__ = ["thiele_small", "from_fit", "evidence_supported_model", "AUTO_CANDIDATES", "AUTO_TERMS",
+           "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES",
            "SPREAD_MIN_PROBABILITY", "MODEL_SPREAD_METHOD", "undetermined",
            "select_spread_models"]
 
@@ -422,6 +423,29 @@ def _fit_candidates(models, method, inp, cand_mode, warns, comps) -> list[str]:
             continue
         warns.extend(w for w in cw if w["code"] == "mixture_component_failed")
     return sorted(comps, key=lambda m: _rank_key(comps[m][2]), reverse=True)
+
+
+def evidence_supported_model(meas: Measurement, *, noise: str = "correlated",
+                             candidates: Sequence | None = None) -> tuple[Model, dict[str, float]]:
+    """The model the evidence supports for one recording: the most probable (Laplace evidence under
+    the ``noise`` likelihood, equal prior odds, parameters determined) of ``candidates`` (default
+    :data:`AUTO_CANDIDATES`) and of the best of them with each of :data:`AUTO_TERMS`. Returns the
+    model and every candidate's posterior probability (``nan``-evidence candidates left out)."""
+    from .mixture import mixture_weights
+
+    inp = _Inputs(meas, [], None, None, None, None, None, 1.18, 343.0, 0, None, noise=noise)
+    comps: dict[str, tuple] = {}
+    warns: list[dict] = []
+    pool = [parse_model_spec(m) if isinstance(m, str) else m for m in (candidates or AUTO_CANDIDATES)]
+    ranked = _fit_candidates(pool, "free_air", inp, "point", warns, comps)
+    if not ranked:
+        raise DataFormatError(f"{meas.source}: none of the candidate models could be fitted")
+    if "+" not in ranked[0]:
+        _fit_candidates([parse_model_spec(f"{ranked[0]}+{t}") for t in AUTO_TERMS], "free_air", inp, "point",
+                        warns, comps)
+    best = max(comps, key=lambda m: _rank_key(comps[m][2]))
+    probs = mixture_weights({m: c[2]["log_z"] for m, c in comps.items() if not c[2]["undetermined"]})
+    return parse_model_spec(best), probs
 
 
 def _spread_models(main: Model, models_for_spread) -> list[Model]:

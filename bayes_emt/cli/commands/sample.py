@@ -62,7 +62,7 @@ def register(sub) -> None:
                        description=__doc__, epilog="examples:\n" + EXAMPLES,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("data", help="measurement file")
-    add_model_args(p)
+    add_model_args(p, required=False)
     add_data_args(p)
     add_exclude_band_arg(p)
     p.add_argument("--out", default=None,
@@ -119,7 +119,18 @@ def run(args) -> int:
     nu = None if args.nu == "sample" else DEFAULT_NU if args.nu is None else args.nu
     if args.loaded is not None and nu is None:
         raise ValueError("--nu sample is not offered with --loaded; give a number of degrees of freedom")
-    model = model_from_args(args)
+    kind = args.noise or ("white" if args.likelihood == "student" else "correlated")
+    if args.model is None:  # the model the evidence supports for this recording
+        from ...thiele_small.compute import evidence_supported_model
+
+        opts0 = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity}
+        meas0 = read_measurement(args.data, **opts0).select(args.omega_min, args.omega_max)
+        model, probs = evidence_supported_model(meas0.exclude_bands(args.exclude_band), noise=kind)
+        ws = ", ".join(f"{m} {p:.2g}" for m, p in sorted(probs.items(), key=lambda kv: -kv[1]))
+        print(f"model {model.label}: the most probable of the candidates (Laplace evidence, {kind} noise; "
+              f"probabilities {ws}); --model to choose another")
+    else:
+        model = model_from_args(args)
     stem = model.label.replace("(", "").replace(")", "") + ("_pair" if args.loaded is not None else "")
     out = Path(args.out or f"{Path(args.data).stem}_{stem}.nc")
     ckpt = Path(args.checkpoint) if args.checkpoint else out.with_suffix(".h5")
@@ -134,7 +145,6 @@ def run(args) -> int:
     loaded = None if args.loaded is None else read_measurement(args.loaded, **opts).select(args.omega_min,
                                                                                           args.omega_max)
     loaded = None if loaded is None else loaded.exclude_bands(args.exclude_band)
-    kind = args.noise or ("white" if args.likelihood == "student" else "correlated")
     if kind == "correlated" and args.likelihood == "student":
         raise ValueError("--noise correlated needs the gaussian likelihood; use --noise white with "
                          "--likelihood student")
