@@ -302,7 +302,21 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                 raise DataFormatError(f"{meas.source}: the fit of {model.label} has no covariance (singular "
                                       "Jacobian): fast intervals are not available; drop fast")
             params = fit.model.params
-            theta = _laplace(params, params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS, rng)
+            theta = None
+            if inp.noise == "correlated":  # the Gaussian approximation of the correlated posterior
+                from ..inference.likelihood import Likelihood
+                from .mixture import laplace_draws
+
+                theta, why = laplace_draws(Likelihood(prior_model, meas, noise="correlated"), fit,
+                                           _LAPLACE_DRAWS, rng)
+                if theta is None:
+                    warns.append({"code": "fast_white", "model": model.label, "run": label,
+                                  "short": "fast intervals from the white fit's covariance",
+                                  "message": f"no Gaussian approximation of the correlated posterior of "
+                                             f"{model.label} ({why}): the fast intervals are the "
+                                             "least-squares fit's, as if the model were exact"})
+            if theta is None:
+                theta = _laplace(params, params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS, rng)
         else:
             cut = meter is not None and meter.cut
             post = sample_posterior(meas, prior_model, fit=held_fit(fit, meter) if cut else fit,
@@ -625,10 +639,13 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
                         "model_only": {"model": main.label, "value": float(med),
                                        "ci90": [float(lo), float(hi)]}}
     if fast:
-        warns.append({"code": "fast_intervals", "short": "intervals from the fit's covariance (--fast), not "
-                      "the posterior", "message": "intervals from the least-squares fit's Gaussian "
-                      "approximation (its covariance, delta method by 4000 draws), not from the posterior: "
-                      "they can be too narrow where the posterior is skewed or the fit is poor"})
+        how = ("the Gaussian (Laplace) approximation of the posterior at its mode"
+               if noise == "correlated" and method == "free_air"
+               else "the least-squares fit's Gaussian approximation (its covariance)")
+        warns.append({"code": "fast_intervals", "short": "intervals from a Gaussian approximation (--fast), "
+                      "not the posterior", "message": f"intervals from {how}, delta method by 4000 draws, "
+                      "not from the posterior: they can be too narrow where the posterior is skewed or the "
+                      "fit is poor"})
     if "lambda_creep" in main.names:
         warns.append({"code": "creep_convention", "short": "fs, Qms by the LOG-creep convention (fs at zero "
                       "mechanical reactance); see the JSON",
