@@ -36,7 +36,7 @@ CASES = {"mass": "I+semi_inductance", "creep": "I+semi_inductance+suspension_cre
          "volume": "I+semi_inductance"}
 
 
-def run_case(case: str, seed: int, *, fast: bool, points: int) -> dict:
+def run_case(case: str, seed: int, *, fast: bool, points: int, noise: str = "correlated") -> dict:
     spec = CASES[case]
     if case == "volume":
         sim = simulate_driver(spec, deltas=(), box_volume=0.010, seed=seed, n_points=points)
@@ -45,9 +45,10 @@ def run_case(case: str, seed: int, *, fast: bool, points: int) -> dict:
         sim = simulate_driver(spec, seed=seed, n_points=points)
         kw = {"loaded": list(sim.loaded)}
     t0 = time.perf_counter()
-    r = thiele_small(sim.free, spec, sd=sim.sd, fast=fast, seed=seed, models_for_spread=[], **kw)
+    r = thiele_small(sim.free, spec, sd=sim.sd, fast=fast, seed=seed, models_for_spread=[], noise=noise, **kw)
     inside = {k: bool(p["ci90"][0] <= sim.truth[k] <= p["ci90"][1]) for k, p in r.parameters.items()}
     return {"case": case, "seed": seed, "method": "laplace" if fast else "posterior", "points": points,
+            "noise": noise,
             "seconds": time.perf_counter() - t0, "inside": inside,
             "truth": {k: sim.truth[k] for k in r.parameters},
             "value": {k: p["value"] for k, p in r.parameters.items()},
@@ -79,6 +80,8 @@ def main(argv=None) -> int:
     ap.add_argument("--fast", action="store_true",
                     help="Laplace (fit covariance) intervals, not the posterior")
     ap.add_argument("--points", type=int, default=600)
+    ap.add_argument("--noise", choices=["correlated", "white"], default="correlated",
+                    help="the likelihood's noise (default correlated: the model-discrepancy likelihood)")
     ap.add_argument("--no-save", action="store_true")
     args = ap.parse_args(argv)
     cases = [c.strip() for c in args.cases.split(",") if c.strip()]
@@ -88,7 +91,7 @@ def main(argv=None) -> int:
     records = []
     for case in cases:
         for seed in range(args.first_seed, args.first_seed + args.seeds):
-            rec = run_case(case, seed, fast=args.fast, points=args.points)
+            rec = run_case(case, seed, fast=args.fast, points=args.points, noise=args.noise)
             records.append(rec)
             miss = [k for k, v in rec["inside"].items() if not v]
             print(f"{case} seed {seed}: {rec['seconds']:.1f} s, outside: {miss or 'none'}", flush=True)

@@ -38,10 +38,26 @@ def joint_fit(pair):
 
 @pytest.fixture(scope="module")
 def short(pair, joint_fit):
-    """A budget of 1000 steps (the sampler converges within it here: τ of a few steps)."""
+    """A budget of 1000 steps (the sampler converges within it here: τ of a few steps). White noise:
+    these tests are about the pair's joint posterior, not the noise model (the correlated one adds
+    two parameters per run and needs a longer budget)."""
     with warnings.catch_warnings():
         warnings.simplefilter("error", ConvergenceWarning)  # a miss would fail the fixture, loudly
-        return sample_added_mass(*pair, DM, MODEL, fit=joint_fit, seed=4, max_steps=1000, progress=False)
+        return sample_added_mass(*pair, DM, MODEL, fit=joint_fit, seed=4, max_steps=1000, progress=False,
+                                 noise="white")
+
+
+def test_correlated_pair_gives_each_run_its_discrepancy(pair):
+    base, loaded = pair
+    lik = AddedMassLikelihood(JointModel(MODEL, DM), base, loaded, noise="correlated")
+    assert lik.params.names[-8:] == (
+        "sigma_rel_base", "sigma_abs_base", "sigma_disc_base", "ell_base",
+        "sigma_rel_loaded", "sigma_abs_loaded", "sigma_disc_loaded", "ell_loaded")
+    white = AddedMassLikelihood(JointModel(MODEL, DM), base, loaded)
+    x = np.array([*TRUE.values(), *SHARED.values()])
+    xw = np.r_[x, 0.002, 1e-9, 0.002, 1e-9]
+    xc = np.r_[x, 0.002, 1e-9, 0.0, 0.1, 0.002, 1e-9, 0.0, 0.1]
+    assert lik(xc[None])[0] == pytest.approx(white(xw[None])[0], rel=1e-12)  # no discrepancy: white
 
 
 def test_joint_likelihood_is_the_sum_of_the_two_runs(pair):

@@ -140,19 +140,27 @@ def test_cli_sample_with_priors_json_and_plots(meas_I, tmp_path, capsys):
     pri.write_text('[R0]\ndist = "lognormal"\nmedian = 2.57\nsigma_log = 0.1\n')
     js = tmp_path / "s.json"
     rc = main(["sample", str(data), "--model", "I", "--out", str(tmp_path / "r.nc"), "--json", str(js),
-               "--priors", str(pri), "--plot", str(tmp_path / "figs"), "--quiet", "--seed", "2"])
+               "--priors", str(pri), "--plot", str(tmp_path / "figs"), "--quiet", "--seed", "2",
+               "--noise", "correlated"])
     out = capsys.readouterr().out
     assert rc == 0 and "CONVERGED" in out and "L_lf (derived)" in out and "ohm" in out
     rec = json.loads(js.read_text())
     # the stopping rule stops only at one of its checks (every SamplerSettings.check_every steps)
     assert rec["model"] == "I" and rec["converged"] is True
     assert rec["n_steps"] % SamplerSettings().check_every == 0
-    assert set(rec["parameters"]) == {"zeta", "omega0", "phi", "R0", "L0", "sigma_rel", "sigma_abs"}
+    # the correlated likelihood adds the model discrepancy's size and correlation length
+    assert set(rec["parameters"]) == {"zeta", "omega0", "phi", "R0", "L0", "sigma_rel", "sigma_abs",
+                                      "sigma_disc", "ell"}
+    assert rec["noise"] == "correlated"
     assert rec["tau_max"] > 0 and rec["parameters"]["R0"]["ess"] >= 1000
     assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
         "posterior_I_bode.png", "posterior_I_corner.png", "posterior_I_trace.png"]
     back = read_posterior(tmp_path / "r.nc")
     assert back.model.params["R0"].prior.to_dict()["dist"] == "lognormal"
+    assert back.likelihood.noise == "correlated"
+    assert back.likelihood.params.names[-2:] == ("sigma_disc", "ell")
+    # the reloaded correlated likelihood reproduces the stored log-likelihood of every draw
+    np.testing.assert_allclose(back.likelihood(back.draws), back.log_lik, rtol=1e-10)
     # user errors: one line, exit 2
     assert main(["sample", str(data), "--model", "I", "--out", str(tmp_path / "r.nc"), "--quiet"]) == 2
     assert "a checkpoint exists" in capsys.readouterr().err
@@ -168,7 +176,8 @@ def test_student_t_resists_outliers():
     Y[[20, 21, 22]] *= 1.3
     bad = type(base)(base.omega, Y, meta=dict(base.meta))
     truth = m.vector(PAPER_TABLES["I"])
-    g = sample_posterior(bad, m, seed=3, max_steps=4000)
+    # both white (the Student-t likelihood is white): the comparison is of the error distributions
+    g = sample_posterior(bad, m, seed=3, max_steps=4000, noise="white")
     t = sample_posterior(bad, m, seed=3, max_steps=4000, likelihood="student", nu=None)
     assert g.converged and t.converged
     med = {p: dict(zip(p.names, np.median(p.flat(), axis=0), strict=True)) for p in (g, t)}

@@ -106,7 +106,7 @@ def test_free_air_with_known_mass_json_roundtrip(tmp_path):
     path = r.save(tmp_path / "ts.json")
     rec = json.loads(path.read_text())
     assert rec["method"] == "free_air" and rec["parameters"]["fs"]["unit"] == "Hz"
-    assert set(rec["parameters"]["Vas"]) == {"value", "ci90", "unit", "model_spread"}
+    assert set(rec["parameters"]["Vas"]) == {"value", "ci90", "unit", "model_spread", "model_only"}
     back = read_thiele_small(path)
     assert back.parameters == r.parameters and back.method == r.method
     import bayes_emt as be

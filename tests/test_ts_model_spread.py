@@ -107,10 +107,12 @@ def test_simulated_driver_spread_record_is_complete_strict_json():
 def test_ls10_44_degenerate_model_iii_is_left_out():
     """On the LS10-44 free-air recording (10 Hz-1 kHz) model III ends at its prior's upper edge of
     alpha with R0 = 2.9 +- 20 ohm (scripts/results/ts_ls10_44.txt): it is undetermined and never
-    enters the spread; the R0 spread stays near the 8.6 ohm of the good fits (within 8-9.5 ohm)."""
+    enters the spread; the R0 spread stays near the 8.6 ohm of the good fits (within 8-9.5 ohm).
+    Evidence under the white likelihood (the creep's 58 nats there; under the correlated one the
+    discrepancy absorbs most of the creep's signature and the evidence is inconclusive)."""
     r = thiele_small(REALDATA / "dayton_LS10-44_freeair_run2.txt", "UD", fast=True,
                      models_for_spread=["III", "UD+suspension_creep"], f_range_hz=(10.0, 1000.0),
-                     read_options={"freq_unit": "hz", "phase_unit": "rad"})
+                     read_options={"freq_unit": "hz", "phase_unit": "rad"}, noise="white")
     models = {m["model"]: m for m in r.inputs["model_spread"]["models"]}
     assert "alpha" in models["III"]["undetermined"] and not models["III"]["included"]
     assert models["III"]["values"]["Re"] < 5.0  # the degenerate value the old unweighted range took in

@@ -248,16 +248,20 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
 @dataclass(frozen=True, eq=False)
 class MultiMassLikelihood(SamplingSpaceDensity):
     """``Σ_runs log p(Y_run | x)`` for the joint vector of :class:`MultiMassModel` plus each run's
-    noise scales (``sigma_rel_run<i>``, ``sigma_abs_run<i>``; run 0 is the reference), Gaussian.
+    noise scales (``sigma_rel_run<i>``, ``sigma_abs_run<i>``; run 0 is the reference), Gaussian;
+    with ``noise="correlated"`` each run also has its own model discrepancy (``sigma_disc_run<i>``,
+    ``ell_run<i>``: :mod:`bayes_emt.inference.discrepancy`).
     The model's priors (e.g. a Normal prior on ``R0`` from an ohmmeter) apply to the shared
     parameters."""
 
     joint: MultiMassModel
     runs: tuple[Measurement, ...]
+    noise: str = "white"
 
     def __post_init__(self):
-        noise = noise_param_set("gaussian", None)
-        liks = tuple(Likelihood(self.joint.model, m, "gaussian", None, noise) for m in self.runs)
+        noise = noise_param_set("gaussian", None, self.noise)
+        object.__setattr__(self, "n_noise", len(noise))
+        liks = tuple(Likelihood(self.joint.model, m, "gaussian", None, noise, self.noise) for m in self.runs)
         object.__setattr__(self, "liks", liks)
         params = self.joint.params
         for i in range(len(self.runs)):
@@ -279,12 +283,13 @@ class MultiMassLikelihood(SamplingSpaceDensity):
     def identity(self) -> dict:
         data = "".join(measurement_sha256(m) for m in self.runs).encode()
         return {"model": f"{self.model.label} multi-mass", "names": list(self.params.names),
+                **({"noise": self.noise} if self.noise != "white" else {}),
                 "deltas": list(self.joint.deltas), "data_sha256": _sha256(data), "source": self.label}
 
     def run_thetas(self, x) -> list[np.ndarray]:
         x = np.asarray(x, float)
-        p = len(self.joint.params)
-        return [np.concatenate([th, x[..., p + 2 * i : p + 2 * i + 2]], axis=-1)
+        p, n = len(self.joint.params), self.n_noise
+        return [np.concatenate([th, x[..., p + n * i : p + n * i + n]], axis=-1)
                 for i, th in enumerate(self.joint.thetas(x[..., :p]))]
 
     def __call__(self, x) -> np.ndarray:
@@ -293,7 +298,7 @@ class MultiMassLikelihood(SamplingSpaceDensity):
 
 def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: Model, *,
                       fit: MultiMassFit | None = None, seed: int = 0, settings=None,
-                      progress: bool | None = False, meter=None):
+                      progress: bool | None = False, meter=None, noise: str = "white"):
     """Joint posterior of the runs (emcee, the stopping rule of :mod:`bayes_emt.inference.sampling`).
 
     ``meter``: an ohmmeter reading under the cut (:mod:`bayes_emt.estimation.meter`; ``model``'s
@@ -306,11 +311,12 @@ def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], mode
     from ..estimation.meter import cut_rng, held_covariance, move_draws
     from ..inference.posterior import Posterior
     from ..inference.sampling import SamplerSettings, noise_start, run_ensemble, start_ball
+    from ..inference.start import extra_noise_start
 
     settings = SamplerSettings() if settings is None else settings
     t0 = time.perf_counter()
     jm = MultiMassModel(model, tuple(deltas))
-    lik = MultiMassLikelihood(jm, tuple(runs))
+    lik = MultiMassLikelihood(jm, tuple(runs), noise)
     fit = fit_multi_mass(runs, deltas, model) if fit is None else fit
 
     cut = None
@@ -326,10 +332,12 @@ def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], mode
         if cut is not None and fit.cov_z is not None:  # given R0, R0 itself held sd·PIN wide
             cov = held_covariance(cov, *cut, meter)
         centre, spread = [], []
-        for meas, rms in zip(runs, fit.rms_rel_residual, strict=True):
+        for rl, th, meas, rms in zip(lik.liks, jm.thetas(fit.theta[None, :]), runs, fit.rms_rel_residual,
+                                     strict=True):
             c, s = noise_start(rms, float(np.min(np.abs(meas.Y))))
-            centre += c
-            spread += s
+            ce, se = extra_noise_start(rl, th[0])
+            centre += c + ce
+            spread += s + se
         return start_ball(lik, z0, cov, centre, spread, nwalkers, np.random.default_rng(seed))
 
     run = run_ensemble(lik, start, seed=seed, progress=progress, settings=settings)

@@ -71,7 +71,9 @@ class AddedMassLikelihood(SamplingSpaceDensity):
     base, loaded : the recordings without and with the added mass.
     kind, nu : the noise distribution (:class:`~bayes_emt.inference.likelihood.Likelihood`); a sampled
         ``nu`` is not offered for pairs.
-    noise_params : the noise priors of *each* run (names ``sigma_rel``, ``sigma_abs``).
+    noise_params : the noise priors of *each* run (names ``sigma_rel``, ``sigma_abs`` and, with
+        ``noise="correlated"``, ``sigma_disc``, ``ell``).
+    noise : ``"white"`` or ``"correlated"`` (:class:`~bayes_emt.inference.likelihood.Likelihood`).
 
     Attributes
     ----------
@@ -87,12 +89,14 @@ class AddedMassLikelihood(SamplingSpaceDensity):
     kind: LikelihoodKind = "gaussian"
     nu: float | None = 4.0
     noise_params: ParamSet | None = None
+    noise: str = "white"
 
     def __post_init__(self):
         if self.kind == "student" and self.nu is None:
             raise ValueError("a sampled Student-t nu is not offered for added-mass pairs; give a number")
-        noise = noise_param_set(self.kind, self.nu) if self.noise_params is None else self.noise_params
-        runs = tuple(Likelihood(self.joint.model, m, self.kind, self.nu, noise)
+        noise = noise_param_set(self.kind, self.nu, self.noise) if self.noise_params is None \
+            else self.noise_params
+        runs = tuple(Likelihood(self.joint.model, m, self.kind, self.nu, noise, self.noise)
                      for m in (self.base, self.loaded))
         object.__setattr__(self, "noise_params", noise)
         object.__setattr__(self, "runs", runs)
@@ -143,10 +147,10 @@ class AddedMassLikelihood(SamplingSpaceDensity):
     def run_thetas(self, x) -> tuple[np.ndarray, np.ndarray]:
         """Each run's full vector (model parameters, ``sigma_rel``, ``sigma_abs``) from ``x (..., k)``."""
         x = np.asarray(x, float)
-        p = len(self.joint.params)
+        p, n = len(self.joint.params), len(self.noise_params)
         tb, tl = self.joint.thetas(x[..., :p])
-        return (np.concatenate([tb, x[..., p : p + 2]], axis=-1),
-                np.concatenate([tl, x[..., p + 2 : p + 4]], axis=-1))
+        return (np.concatenate([tb, x[..., p : p + n]], axis=-1),
+                np.concatenate([tl, x[..., p + n : p + 2 * n]], axis=-1))
 
     def model_thetas(self, x) -> tuple[np.ndarray, np.ndarray]:
         """Each run's model vector ``(ζ, ω0, φ̄, R0, coil...)`` from ``x (..., k)``."""
@@ -289,11 +293,13 @@ def read_added_mass_posterior(dt) -> AddedMassPosterior:
         Y = dt["observed_data"][f"Y_{run}_real"].values + 1j * dt["observed_data"][f"Y_{run}_imag"].values
         meas.append(Measurement(const[f"omega_{run}_rad_s"].values, Y, weights=w, meta=json.loads(a[meta])))
     p = len(joint.params)
+    kind = str(a.get("noise", "white"))
+    n = 4 if kind == "correlated" else 2
     noise = ParamSet(replace(s, name=s.name.removesuffix("_base"),
-                             description=s.description.removesuffix(" (base run)")) for s in specs[p : p + 2])
+                             description=s.description.removesuffix(" (base run)")) for s in specs[p : p + n])
     nu = None if a["nu"] == "sampled" else float(a["nu"])
     lik = AddedMassLikelihood(joint, meas[0], meas[1], str(a["likelihood"]),
-                              None if nu is None or nu < 0 else nu, noise)
+                              None if nu is None or nu < 0 else nu, noise, kind)
     return AddedMassPosterior(lik, **stored_record(dt, specs.names), fit=json.loads(a["joint_fit"]))
 
 
@@ -307,7 +313,8 @@ def sample_added_mass(base: Measurement, loaded: Measurement, delta_m: float, mo
                       checkpoint: str | Path | None = None, resume: bool = False, overwrite: bool = False,
                       progress: bool | None = None, likelihood: LikelihoodKind = "gaussian",
                       nu: float | None = 4.0, noise_params: ParamSet | None = None,
-                      physical_params: ParamSet | None = None, settings=None) -> AddedMassPosterior:
+                      physical_params: ParamSet | None = None, settings=None,
+                      noise: str = "white") -> AddedMassPosterior:
     """Sample the joint posterior of an added-mass pair (module docstring).
 
     Parameters
@@ -321,13 +328,14 @@ def sample_added_mass(base: Measurement, loaded: Measurement, delta_m: float, mo
     noise priors).
     """
     from ..inference.sampling import SamplerSettings, noise_start, run_ensemble, start_ball
+    from ..inference.start import extra_noise_start
 
     if not (math.isfinite(delta_m) and delta_m != 0):
         raise ValueError(f"delta_m must be a non-zero mass in kg, got {delta_m!r}")
     settings = SamplerSettings() if settings is None else settings
     t0 = time.perf_counter()
     joint = JointModel(model, float(delta_m), physical_params)
-    lik = AddedMassLikelihood(joint, base, loaded, likelihood, nu, noise_params)
+    lik = AddedMassLikelihood(joint, base, loaded, likelihood, nu, noise_params, noise)
     if fit is None:  # also when resuming: the record carries the fit the walkers started from
         fit = fit_added_mass(base, loaded, delta_m, model)
 
@@ -337,10 +345,12 @@ def sample_added_mass(base: Measurement, loaded: Measurement, delta_m: float, mo
         cov = fit.cov_z if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)) else \
             np.diag((1e-3 * np.maximum(np.abs(z0), 1.0)) ** 2)
         centre, spread = [], []
-        for meas, rms in zip((base, loaded), fit.rms_rel_residual, strict=True):
+        run_th = lik.joint.thetas(jp.vector(fit.values)[None, :])
+        for rl, th, meas, rms in zip(lik.runs, run_th, (base, loaded), fit.rms_rel_residual, strict=True):
             c, s = noise_start(rms, float(np.min(np.abs(meas.Y))))
-            centre += c
-            spread += s
+            ce, se = extra_noise_start(rl, th[0])
+            centre += c + ce
+            spread += s + se
         return start_ball(lik, z0, cov, centre, spread, nwalkers, np.random.default_rng(seed))
 
     run = run_ensemble(lik, start, seed=seed, max_steps=max_steps, checkpoint=checkpoint, resume=resume,

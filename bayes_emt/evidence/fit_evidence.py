@@ -63,7 +63,7 @@ import numpy as np
 
 from ..inference.likelihood import Likelihood
 from ..inference.sampling import noise_start
-from ..inference.start import floor_noise_start, posterior_mode
+from ..inference.start import extra_noise_start, floor_noise_start, posterior_mode
 from ..measurement import Measurement
 from ..params import clip_inside
 from .laplace import affine_map, hessian_fd, laplace_evidence
@@ -335,12 +335,13 @@ def fit_start(lik: Likelihood, fit) -> tuple[np.ndarray, np.ndarray, Warp]:
     tell."""
     k = lik.model.ndim
     centre, spread = noise_start(fit.rms_rel_residual, float(np.min(np.abs(lik.meas.Y))))
-    z0 = np.r_[fit.z, centre, [math.log(10.0)] * lik.sample_nu]
+    extra, extra_spread = extra_noise_start(lik, fit.theta)
+    z0 = np.r_[fit.z, centre, extra]
     cov_fit = fit.cov_z if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)) else \
         np.diag((1e-3 * np.maximum(np.abs(fit.z), 1.0)) ** 2)
     scale = np.zeros((lik.ndim, lik.ndim))
     scale[:k, :k] = cov_fit
-    scale[k:, k:] = np.diag(np.square(list(spread) + [0.3] * lik.sample_nu))
+    scale[k:, k:] = np.diag(np.square(list(spread) + extra_spread))
     return z0, scale, Warp.of(lik.params, mask=np.arange(lik.ndim) >= k)
 
 

@@ -17,6 +17,12 @@ the normalising term ``log σ_k`` would then pull the estimate towards larger ad
 0.2 % noise of the paper the measured and true |Y| differ by 0.3 % of σ, a second-order effect;
 the calibration script confirms the intervals cover as stated.
 
+Correlation (``noise``): ``white`` is the above, errors independent across frequencies (the
+posterior "if the model were exact"); ``correlated`` adds to that noise a model discrepancy of
+relative size ``sigma_disc``, correlated over log-frequency (an Ornstein–Uhlenbeck process with an
+inferred correlation length ``ell`` [decades], :mod:`bayes_emt.inference.discrepancy`), which is
+the white likelihood as ``sigma_disc → 0``.
+
 Both noise scales are sampled, in log space, with proper log-uniform priors
 (:data:`NOISE_PARAMS`), identical for every model so evidences stay comparable.
 
@@ -56,14 +62,17 @@ from ..measurement import Measurement
 from ..models import Model
 from ..params import NOISE_PARAMS, NU_SPEC, ParamSet, noise_param_set
 from ..params.priors import LogUniform, Uniform
+from .discrepancy import NOISE_KINDS, NoiseCorrelation, ou_rho
 from .fastpath import JwPlan
 from .magnitude import MagnitudeOnly
 from .noise import GaussianNoiseSums
 
-__all__ = ["NOISE_PARAMS", "NU_SPEC", "Likelihood", "LikelihoodKind", "MagnitudeLikelihood",
+__all__ = ["NOISE_PARAMS", "NU_SPEC", "Likelihood", "LikelihoodKind", "MagnitudeLikelihood", "NoiseKind",
+           "NOISE_KINDS",
            "SamplingSpaceDensity", "noise_param_set", "measurement_sha256"]
 
 LikelihoodKind = Literal["gaussian", "student"]
+NoiseKind = Literal["correlated", "white"]
 
 class _BoxPrior:
     """``ParamSet.log_prior_z`` and ``from_z`` in one vectorised pass: log-uniform and uniform
@@ -161,7 +170,11 @@ class Likelihood(SamplingSpaceDensity):
     kind : ``"gaussian"`` or ``"student"``.
     nu : Student-t degrees of freedom; ``None`` samples it (prior :data:`NU_SPEC`).
     noise_params : the noise ParamSet (default :func:`noise_param_set`; to change a prior pass
-        ``noise_param_set(kind, nu).with_priors(...)``, see :mod:`bayes_emt.inference.priors`).
+        ``noise_param_set(kind, nu, noise).with_priors(...)``, see :mod:`bayes_emt.inference.priors`).
+    noise : ``"white"`` (independent errors; the default of this building block) or
+        ``"correlated"`` (the model-discrepancy likelihood of :mod:`bayes_emt.inference.discrepancy`,
+        which appends the correlation length ``ell`` to the noise parameters; the default of
+        ``sample`` and ``ts``).
 
     Attributes
     ----------
@@ -175,6 +188,7 @@ class Likelihood(SamplingSpaceDensity):
     kind: LikelihoodKind = "gaussian"
     nu: float | None = 4.0
     noise_params: ParamSet | None = None
+    noise: NoiseKind = "white"
 
     def __new__(cls, *args, **kwargs):
         # a magnitude-only recording gets the likelihood on log|Y| (bayes_emt.inference.magnitude)
@@ -190,7 +204,9 @@ class Likelihood(SamplingSpaceDensity):
             raise ValueError(f"unknown likelihood {self.kind!r}; choose gaussian or student")
         if self.kind == "student" and self.nu is not None and not (self.nu > 0 and math.isfinite(self.nu)):
             raise ValueError(f"Student-t degrees of freedom must be a positive number, got {self.nu}")
-        default = noise_param_set(self.kind, self.nu)
+        if self.noise not in NOISE_KINDS:
+            raise ValueError(f"unknown noise {self.noise!r}; choose one of {', '.join(NOISE_KINDS)}")
+        default = noise_param_set(self.kind, self.nu, self.noise)
         if self.noise_params is None:
             object.__setattr__(self, "noise_params", default)
         elif self.noise_params.names != default.names:
@@ -202,6 +218,16 @@ class Likelihood(SamplingSpaceDensity):
         object.__setattr__(self, "_w2", np.asarray(w, float) ** 2)
         object.__setattr__(self, "_plan", JwPlan.build(self.model, self.meas.omega))
         object.__setattr__(self, "_noise", GaussianNoiseSums(self.meas.Y, self._w2))
+        if self.correlated and self.kind != "gaussian":
+            raise ValueError("the correlated (model-discrepancy) noise needs the gaussian likelihood; "
+                             "use noise='white' (--noise white) with a student-t likelihood")
+        object.__setattr__(self, "_corr", NoiseCorrelation(self.meas.omega, self._absY / np.sqrt(self._w2))
+                           if self.correlated else None)
+
+    @property
+    def correlated(self) -> bool:
+        """Whether the residual is modelled as a correlated discrepancy (``noise="correlated"``)."""
+        return self.noise == "correlated"
 
     @property
     def sample_nu(self) -> bool:
@@ -223,10 +249,13 @@ class Likelihood(SamplingSpaceDensity):
 
     def describe(self) -> str:
         """One line naming the noise model (for reports and file attributes)."""
+        corr = ("; plus a model discrepancy of relative size sigma_disc correlated over log10 f "
+                "(Ornstein-Uhlenbeck, correlation length ell [decades]; both inferred)" if self.correlated
+                else "; independent across frequencies (white: as if the model were exact)")
         if self.kind == "gaussian":
-            return "gaussian, sigma^2 = (sigma_rel |Y_meas|)^2 + sigma_abs^2 per part"
+            return "gaussian, sigma^2 = (sigma_rel |Y_meas|)^2 + sigma_abs^2 per part" + corr
         nu = "sampled" if self.sample_nu else f"{self.nu:g}"
-        return f"student-t (nu {nu}), scale^2 = (sigma_rel |Y_meas|)^2 + sigma_abs^2 per part"
+        return f"student-t (nu {nu}), scale^2 = (sigma_rel |Y_meas|)^2 + sigma_abs^2 per part" + corr
 
     # ---- pieces ----------------------------------------------------------------------------
     def split(self, theta):
@@ -236,6 +265,14 @@ class Likelihood(SamplingSpaceDensity):
         k = self.model.ndim
         nu = theta[..., k + 2] if self.sample_nu else self.nu
         return theta[..., :k], theta[..., k], theta[..., k + 1], nu
+
+    def discrepancy(self, theta):
+        """``(sigma_disc, ell)`` of physical values ``(..., k)``: the discrepancy's relative size and
+        correlation length [decades] (``noise="correlated"``; zeros, i.e. white, otherwise)."""
+        theta = np.asarray(theta, float)
+        if not self.correlated:
+            return np.zeros(theta.shape[:-1]), np.zeros(theta.shape[:-1])
+        return theta[..., -2], theta[..., -1]
 
     def sigma(self, sigma_rel, sigma_abs):
         """Per-frequency std (Student-t: scale) of each part [S], shape ``(..., F)``."""
@@ -275,7 +312,8 @@ class Likelihood(SamplingSpaceDensity):
     def predictive(self, theta, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """``(Y_model, Y_replicated)`` [S] at the measured frequencies, each ``(..., F)``: the model's
         admittance for parameter sets ``theta (..., k)`` and one replicated measurement of each,
-        with noise drawn from this likelihood (Gaussian or Student-t parts of scale ``σ_k``)."""
+        with noise drawn from this likelihood (Gaussian or Student-t parts of scale ``σ_k``; correlated over
+        frequency by the AR(1) recursion when ``noise="correlated"``)."""
         th, srel, sabs, nu = self.split(theta)
         Ym = self.model.admittance(self.meas.omega, th)
         sig = self.sigma(srel, sabs)
@@ -284,7 +322,16 @@ class Likelihood(SamplingSpaceDensity):
             noise = rng.standard_t(df) + 1j * rng.standard_t(df)
         else:
             noise = rng.standard_normal(Ym.shape) + 1j * rng.standard_normal(Ym.shape)
-        return Ym, Ym + sig * noise
+        rep = Ym + sig * noise
+        if self.correlated:  # plus the discrepancy: an OU path by its AR(1) recursion on the grid
+            sd, ell = self.discrepancy(theta)
+            rho = ou_rho(self._corr.x, ell)
+            gain = np.sqrt(-np.expm1(2.0 * np.log(np.maximum(rho, 1e-300))))
+            d = rng.standard_normal(Ym.shape) + 1j * rng.standard_normal(Ym.shape)
+            for i in range(1, d.shape[-1]):
+                d[..., i] = rho[..., i - 1] * d[..., i - 1] + gain[..., i - 1] * d[..., i]
+            rep = rep + np.asarray(sd, float)[..., None] * self._corr.absY * d
+        return Ym, rep
 
     # ---- densities ---------------------------------------------------------------------------
     def pointwise(self, theta) -> np.ndarray:
@@ -293,6 +340,12 @@ class Likelihood(SamplingSpaceDensity):
         with np.errstate(all="ignore"):
             r = self.residuals(theta)
             sig = self.sigma(srel, sabs)
+            if self.correlated:
+                lead = r.shape[:-1]
+                sd, ell = self.discrepancy(theta)
+                F = self.n_points
+                return self._corr.pointwise(r.reshape(-1, F), np.broadcast_to(sig, r.shape).reshape(-1, F),
+                                            np.ravel(sd), np.ravel(ell)).reshape(lead + (F,))
             if self.kind == "gaussian":
                 ll = -np.log(2 * math.pi * sig * sig) - (r.real**2 + r.imag**2) / (2 * sig * sig)
             else:
@@ -311,6 +364,16 @@ class Likelihood(SamplingSpaceDensity):
         """
         if self.kind != "gaussian":
             return np.sum(self.pointwise(theta), axis=-1)
+        if self.correlated:
+            theta = np.asarray(theta, float)
+            lead = theta.shape[:-1]
+            flat = theta.reshape(-1, theta.shape[-1])
+            _, srel, sabs, _ = self.split(flat)
+            sd, ell = self.discrepancy(flat)
+            with np.errstate(all="ignore"):
+                r = self.model_admittance(flat[:, : self.model.ndim]) - self.meas.Y
+                sig = self.sigma(srel, sabs)
+            return self._corr.total(r, sig, sd, ell).reshape(lead)
         theta = np.asarray(theta, float)
         lead = theta.shape[:-1]
         flat = theta.reshape(-1, theta.shape[-1])
@@ -328,7 +391,8 @@ class Likelihood(SamplingSpaceDensity):
                 "n_turns": self.model.n_turns, "names": list(self.params.names), "likelihood": self.kind,
                 "nu": self.nu, "n_points": self.meas.n_points,
                 "priors_sha256": _sha256(json.dumps(self.params.to_dict(), sort_keys=True).encode()),
-                "data_sha256": measurement_sha256(self.meas), "source": self.meas.source}
+                "data_sha256": measurement_sha256(self.meas), "source": self.meas.source,
+                **({"noise": self.noise} if self.correlated else {})}
 
 
 @dataclass(frozen=True, eq=False)

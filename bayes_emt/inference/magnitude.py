@@ -44,6 +44,9 @@ class MagnitudeOnly:
     residuals and densities by the real log-magnitude ones (same interface, same parameters)."""
 
     def __post_init__(self):
+        if getattr(self, "noise", "white") != "white":
+            raise ValueError(f"{self.meas.source}: the correlated-discrepancy noise is defined for complex "
+                             "recordings; a magnitude-only recording takes the white noise (--noise white)")
         super().__post_init__()
         object.__setattr__(self, "_log_absY", np.log(self._absY))
 

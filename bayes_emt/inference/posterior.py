@@ -56,6 +56,10 @@ def _versions() -> dict:
     return out
 
 
+#: how a table names the noise kind
+_NOISE_WORDS = {"correlated": "with model discrepancy", "white": "white: if the model were exact"}
+
+
 @dataclass(frozen=True, eq=False, repr=False)
 class Posterior(Record):
     """Posterior draws of one model given one measurement (no sampler state inside).
@@ -188,6 +192,7 @@ class Posterior(Record):
                 "burn": self.burn, "thin": self.thin, "n_walkers": self.n_walkers,
                 "n_draws_kept": int(self.draws.shape[0] * self.draws.shape[1]),
                 "acceptance": self.acceptance, "seed": self.seed, "likelihood": self.likelihood.kind,
+                "noise": self.likelihood.noise,
                 "wall_time_s": self.wall_time,
                 "parameters": {r["name"]: {k: r[k] for k in ("median", "q05", "q95", "ess", "tau", "unit")}
                                for r in self.summary_rows()},
@@ -215,7 +220,7 @@ class Posterior(Record):
         note = (f"{'converged' if self.converged else 'NOT CONVERGED'}: {self.message}; burn {self.burn}, "
                 f"thin {self.thin}, acceptance {self.acceptance:.2f}, {self.wall_time:.1f} s")
         return [Table(f"{self.model.label}: posterior median and central 90 % interval "
-                      f"({self.likelihood.kind} likelihood)",
+                      f"({self.likelihood.kind} likelihood, {_NOISE_WORDS[self.likelihood.noise]})",
                       ("parameter", "median", "5 %", "95 %", "unit", "ESS", "tau [steps]"), rows + drows,
                       (note,))]
 
@@ -243,7 +248,7 @@ class Posterior(Record):
                 "terms": json.dumps([t.to_dict() for t in model.terms]),
                 "model_record": json.dumps(model.to_dict()), "likelihood": lik.kind,
                 "nu": "sampled" if lik.sample_nu else (-1.0 if lik.nu is None else float(lik.nu)),
-                "noise_model": lik.describe()}
+                "noise": lik.noise, "noise_model": lik.describe()}
 
     def _attrs(self) -> dict:
         meas = self.likelihood.meas
@@ -322,7 +327,7 @@ def posterior_from_datatree(dt, *, where: str = "posterior") -> Posterior:
     meas = Measurement(omega, Y, weights=w, meta=json.loads(a["measurement_meta"]))
     nu = None if a["nu"] == "sampled" else float(a["nu"])
     lik = Likelihood(model, meas, str(a["likelihood"]), None if nu is None or nu < 0 else nu,
-                     ParamSet(specs[k:]))
+                     ParamSet(specs[k:]), str(a.get("noise", "white")))
     return Posterior(lik, **stored_record(dt, specs.names))
 
 

@@ -101,7 +101,7 @@ from ..models import Model
 from ..params import ParamSet
 from ..params.priors import LogNormal, LogUniform, Normal, Uniform
 from .checkpoint import ChainStore, CheckpointLock, check_checkpoint, checkpoint_steps, read_identity
-from .likelihood import Likelihood, LikelihoodKind
+from .likelihood import Likelihood, LikelihoodKind, NoiseKind
 from .moves import MOVES_DESCRIPTION, SnookerMove, production_moves, proposal_mismatch, warmup_moves
 from .posterior import Posterior
 from .start import initial_walkers, noise_start, start_ball
@@ -590,7 +590,7 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
                      max_steps: int | None = None, checkpoint: str | Path | None = None,
                      resume: bool = False, overwrite: bool = False, progress: bool | None = None,
                      likelihood: LikelihoodKind = "gaussian", nu: float | None = 4.0,
-                     noise_params: ParamSet | None = None,
+                     noise_params: ParamSet | None = None, noise: NoiseKind | None = None,
                      settings: SamplerSettings = SamplerSettings()) -> Posterior:
     """Sample the posterior of ``model`` given ``meas`` with emcee (see the module docstring).
 
@@ -609,6 +609,9 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
     likelihood, nu : ``"gaussian"``, or ``"student"`` with ``nu`` degrees of freedom (``None``:
         sampled).
     noise_params : noise priors (default :func:`~bayes_emt.inference.likelihood.noise_param_set`).
+    noise : ``"white"`` (the default: independent errors, the posterior if the model were exact; the
+        only choice with the Student-t likelihood) or ``"correlated"`` (instrument noise plus a model
+        discrepancy correlated over log-frequency, :mod:`bayes_emt.inference.discrepancy`).
     settings : :class:`SamplerSettings`.
 
     Returns
@@ -617,6 +620,8 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
         Thinned draws after burn-in, diagnostics and provenance; ``converged`` False (with a
         :class:`~bayes_emt.errors.ConvergenceWarning`) when the budget ran out first.
     """
-    lik = Likelihood(model, meas, likelihood, nu, noise_params)
+    if noise is None:
+        noise = "white"
+    lik = Likelihood(model, meas, likelihood, nu, noise_params, noise)
     return sample_likelihood(lik, fit=fit, seed=seed, max_steps=max_steps, checkpoint=checkpoint,
                              resume=resume, overwrite=overwrite, progress=progress, settings=settings)

@@ -19,7 +19,8 @@ from scipy import optimize
 from ..errors import FitError
 from ..estimation.results import FitResult
 
-__all__ = ["initial_walkers", "noise_start", "floor_noise_start", "start_ball", "posterior_mode"]
+__all__ = ["initial_walkers", "noise_start", "floor_noise_start", "extra_noise_start", "start_ball",
+           "posterior_mode"]
 
 _FD_STEP = 1e-5  # central-difference step in whitened coordinates
 LOOSE_SD = 1.0  # sampling-space standard deviation beyond which a start coordinate is checked (start_ball)
@@ -82,6 +83,28 @@ def noise_start(rms_rel: float, min_abs_Y: float) -> tuple[list[float], list[flo
     return [math.log(sig0), math.log(1e-3 * sig0 * min_abs_Y)], [0.05, 1.0]
 
 
+def extra_noise_start(lik, theta) -> tuple[list[float], list[float]]:
+    """Centre and spread, in sampling space, of the noise parameters after the two scales: a
+    sampled ``nu`` at 10 (spread 0.3), then a correlated
+    likelihood's ``sigma_disc`` and ``ell`` from the relative residual of the model at ``theta``
+    (:func:`~bayes_emt.inference.discrepancy.discrepancy_start`); empty for a white Gaussian
+    likelihood."""
+    from .discrepancy import discrepancy_start
+
+    centre, spread = [], []
+    if getattr(lik, "sample_nu", False):
+        centre.append(math.log(10.0))
+        spread.append(0.3)
+    if getattr(lik, "correlated", False):
+        with np.errstate(all="ignore"):
+            th = np.asarray(theta, float)[: lik.model.ndim]
+            r = (lik.model_admittance(th) - lik.meas.Y) / np.abs(lik.meas.Y)
+        c, sp = discrepancy_start(lik._corr.x, np.where(np.isfinite(r), r, 0.0))
+        centre += c
+        spread += sp
+    return centre, spread
+
+
 def floor_noise_start(lik, theta, z_rel: float) -> tuple[list[float], float]:
     """The noise start with the absolute floor dominating, ``([log sigma_rel, log sigma_abs], rms_abs)``:
     ``sigma_abs`` at the rms absolute residual ``rms_abs`` [S] of the model at ``theta`` (per part),
@@ -112,7 +135,7 @@ def initial_walkers(lik, fit: FitResult, nwalkers: int, rng: np.random.Generator
     rel, spread = noise_start(fit.rms_rel_residual, min_abs)
     floor, rms_abs = floor_noise_start(lik, fit.theta, rel[0])
     _refuse_noise_priors_excluding(lik, rel[0], rms_abs)
-    extra = [math.log(10.0)] if lik.sample_nu else []
+    extra, extra_spread = extra_noise_start(lik, fit.theta)
     starts = np.array([np.r_[z0, rel, extra], np.r_[z0, floor, extra]])
     starts = lik.params.clip_inside(starts)
     lo = lik.params.bounds_z()[0]
@@ -123,8 +146,7 @@ def initial_walkers(lik, fit: FitResult, nwalkers: int, rng: np.random.Generator
     mode = posterior_mode(lik, starts, full)
     absolute = mode[k + 1] > math.log(min_abs) + mode[k]  # sigma_abs above sigma_rel |Y| somewhere
     noise_spread = [1.0, 0.05] if absolute else list(spread)
-    if lik.sample_nu:
-        noise_spread.append(0.3)
+    noise_spread += extra_spread
     # the other noise scale is not identified below the level where it starts to matter: its
     # posterior is the prior there, a plateau reaching down to the prior's bound; start the walkers
     # spread over it (a ball around the mode's arbitrary point on it takes the warm-up long to widen)

@@ -50,7 +50,7 @@ MODEL_NAMES: tuple[str, ...] = tuple(BASE_MODELS)
 
 _ID = re.compile(r"^[a-z][a-z0-9_]*$")
 _PRIORS = typing.get_args(Prior)
-_NOISE = noise_param_set("student", None).names
+_NOISE = noise_param_set("student", None, "correlated").names
 _BUILTIN_IDS: set[str] = set()
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from .priors import LogUniform
 from .spec import ParamSet, ParamSpec
 
-__all__ = ["NOISE_PARAMS", "NU_SPEC", "noise_param_set"]
+__all__ = ["NOISE_PARAMS", "NU_SPEC", "DISCREPANCY_PARAMS", "noise_param_set"]
 
 #: Noise parameters appended to every model's parameter vector (identical across models).
 NOISE_PARAMS = ParamSet([
@@ -25,7 +25,25 @@ NOISE_PARAMS = ParamSet([
 NU_SPEC = ParamSpec("nu", "1", r"$\nu$", LogUniform(1.0, 100.0), "Student-t degrees of freedom")
 
 
-def noise_param_set(kind: str = "gaussian", nu: float | None = 4.0) -> ParamSet:
+#: The correlated likelihood's model discrepancy (:mod:`bayes_emt.inference.discrepancy`): its size
+#: relative to |Y| (same prior as ``sigma_rel``: the misfit of a poor model can be as large as the
+#: noise of a poor instrument) and its correlation length over log10 frequency [decades]. Lower end
+#: 1e-4 decades, below the spacing of any bench sweep (2000 points over 3 decades are 1.5e-3
+#: decades apart): an uncorrelated discrepancy is inside the prior. Upper end 1 decade: a residual
+#: correlated over more than a decade is a change of level or slope across the band, which the
+#: model's own parameters (resistance, inductance, mass, compliance) describe; a process allowed to
+#: take it would trade against them (Brynjarsdottir & O'Hagan 2014).
+DISCREPANCY_PARAMS = ParamSet([
+    ParamSpec("sigma_disc", "1", r"$\sigma_\mathrm{disc}$", LogUniform(1e-6, 1.0),
+              "model discrepancy: std of the real and imaginary parts (fraction of |Y|)"),
+    ParamSpec("ell", "dec", r"$\ell$", LogUniform(1e-4, 1.0),
+              "correlation length of the model discrepancy over log10 frequency"),
+])
+
+
+def noise_param_set(kind: str = "gaussian", nu: float | None = 4.0, noise: str = "white") -> ParamSet:
     """The default noise parameters of a likelihood: :data:`NOISE_PARAMS`, plus :data:`NU_SPEC`
-    for a Student-t likelihood whose ``nu`` is sampled (``nu=None``)."""
-    return NOISE_PARAMS + ParamSet([NU_SPEC]) if kind == "student" and nu is None else NOISE_PARAMS
+    for a Student-t likelihood whose ``nu`` is sampled (``nu=None``), plus :data:`DISCREPANCY_PARAMS` for
+    the correlated discrepancy (``noise="correlated"``), in that order."""
+    out = NOISE_PARAMS + ParamSet([NU_SPEC]) if kind == "student" and nu is None else NOISE_PARAMS
+    return out + DISCREPANCY_PARAMS if noise == "correlated" else out

@@ -45,7 +45,8 @@ model's physics terms, plus the main model itself) that pass three tests, in thi
 
 This is the spread "weighted by evidence": a model the evidence rules out carries no weight, the
 others count whatever their probability (a range, not a mixture). With the main model alone left
-the spread is ``None``; when the main model itself is left out, the spread shows the values of the
+the spread is that model's value alone (``[v, v]``: the evidence leaves no other); when the main
+model itself is left out, the spread shows the values of the
 models that are left (one value possibly) and a ``better_model`` warning names the most probable.
 Every candidate's rms, undetermined parameters, log Z, probability and verdict are in
 ``inputs["model_spread"]``, and the rule in words in ``inputs["model_spread_method"]``. On real
@@ -73,11 +74,13 @@ from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from .curve import fit_curve
+from .mixture import MIXTURE_METHOD, mixture_weights, weighted_quantiles
 from .plausibility import check_inputs, check_result, setup_warnings
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
 
-__all__ = ["thiele_small", "from_fit", "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES",
+__all__ = ["thiele_small", "from_fit", "evidence_supported_model", "AUTO_CANDIDATES", "AUTO_TERMS",
+           "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES",
            "SPREAD_MIN_PROBABILITY", "MODEL_SPREAD_METHOD", "undetermined",
            "select_spread_models"]
 
@@ -91,6 +94,19 @@ MODEL_SPREAD_METHOD = (
     f"odds) is at least {SPREAD_MIN_PROBABILITY:g}; candidates whose evidence could not be computed are kept "
     "unweighted")
 DEFAULT_SPREAD_BASES = ("II", "III", "UD")
+#: the candidates of the evidence-supported default model (``model=None``): the coil models, then
+#: the catalogue terms of :data:`AUTO_TERMS` on the most probable of them
+AUTO_CANDIDATES = ("II", "III", "UD", "NL(3)")
+#: physics terms tried on the most probable coil model (a lossy coil beyond the model's eddy
+#: currents; the suspension's viscoelastic creep below resonance)
+AUTO_TERMS = ("semi_inductance", "suspension_creep")
+_NOISE_SHORT = {"correlated": "with the model-discrepancy likelihood", "white": "white likelihood"}
+#: what each noise kind means, in the result's inputs
+NOISE_DESCRIPTION = {
+    "correlated": "instrument noise plus a model discrepancy correlated over log-frequency "
+                  "(Ornstein-Uhlenbeck, size and correlation length inferred): intervals that include the "
+                  "model's misfit",
+    "white": "independent errors at every frequency: the intervals if the model were exact"}
 _LAPLACE_DRAWS = 4000
 
 
@@ -127,7 +143,9 @@ def _volume_of(box) -> float | None:
         return None  # the shape is refused below, with its own message
 
 
-def _model(model) -> Model:
+def _model(model) -> Model | None:
+    if model is None or (isinstance(model, str) and model.strip().lower() == "auto"):
+        return None
     return parse_model_spec(model) if isinstance(model, str) else model
 
 
@@ -154,6 +172,7 @@ class _Inputs:
     settings: object
     evidence: bool = True  # compute each model's Laplace evidence (only needed for the model spread)
     curve: dict | None = None  # the main model's fitted free-air curve (curve.fit_curve)
+    noise: str = "white"  # the likelihood's noise (bayes_emt.inference.discrepancy)
 
 
 def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
@@ -210,18 +229,18 @@ def select_spread_models(records: list[dict]) -> list[dict]:
     return out
 
 
-def _single_evidence(meas, fit, prior_model) -> float:
+def _single_evidence(meas, fit, prior_model, noise: str = "white") -> float:
     from ..evidence.fit_evidence import fit_log_evidence
     from ..inference.likelihood import Likelihood
 
     try:
-        ev = fit_log_evidence(meas, fit, lik=Likelihood(prior_model, meas))
+        ev = fit_log_evidence(meas, fit, lik=Likelihood(prior_model, meas, noise=noise))
     except (ValueError, FloatingPointError, np.linalg.LinAlgError):
         return float("nan")
     return float(ev.log_z)
 
 
-def _joint_evidence(runs, mfit, prior_model) -> float:
+def _joint_evidence(runs, mfit, prior_model, noise: str = "white") -> float:
     """Laplace log Z of the joint added-mass likelihood (each run's noise scales sampled), started
     at the joint least-squares fit."""
     import warnings
@@ -229,17 +248,19 @@ def _joint_evidence(runs, mfit, prior_model) -> float:
     from ..added_mass.multi import MultiMassLikelihood, MultiMassModel
     from ..evidence.laplace import laplace_evidence
     from ..evidence.warp import Warp
-    from ..inference.start import noise_start
+    from ..inference.start import extra_noise_start, noise_start
 
     if mfit.cov_z is None or not np.all(np.isfinite(mfit.cov_z)):
         return float("nan")
-    lik = MultiMassLikelihood(MultiMassModel(prior_model, mfit.joint.deltas), tuple(runs))
+    lik = MultiMassLikelihood(MultiMassModel(prior_model, mfit.joint.deltas), tuple(runs), noise)
     p = len(mfit.joint.params)
     z0, spread = [mfit.joint.params.to_z(mfit.theta)], []
-    for meas, rms in zip(runs, mfit.rms_rel_residual, strict=True):
+    for rl, th, meas, rms in zip(lik.liks, lik.joint.thetas(mfit.theta[None, :]), runs, mfit.rms_rel_residual,
+                                 strict=True):
         c, s = noise_start(rms, float(np.min(np.abs(meas.Y))))
-        z0.append(np.asarray(c, float))
-        spread += s
+        ce, se = extra_noise_start(rl, th[0])
+        z0.append(np.asarray(c + ce, float))
+        spread += s + se
     z0 = np.concatenate(z0)
     scale = np.zeros((z0.size, z0.size))
     scale[:p, :p] = mfit.cov_z
@@ -275,16 +296,41 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         point = fit.theta[None, :]
         if mode == "point":
             theta = point
+        elif mode == "component":  # a mixture component: Laplace at the posterior mode, same likelihood
+            from ..inference.likelihood import Likelihood
+            from .mixture import laplace_draws
+
+            lik = Likelihood(prior_model, meas, noise=inp.noise)
+            theta, why = laplace_draws(lik, fit, _LAPLACE_DRAWS, rng)
+            if theta is None:
+                warns.append({"code": "mixture_component_failed", "model": model.label, "run": label,
+                              "short": "no Gaussian approximation for the model mixture",
+                              "message": f"{model.label} left out of the model mixture: {why}"})
+                theta = point
         elif mode == "laplace":
             if fit.cov_z is None:
                 raise DataFormatError(f"{meas.source}: the fit of {model.label} has no covariance (singular "
                                       "Jacobian): fast intervals are not available; drop fast")
             params = fit.model.params
-            theta = _laplace(params, params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS, rng)
+            theta = None
+            if inp.noise == "correlated":  # the Gaussian approximation of the correlated posterior
+                from ..inference.likelihood import Likelihood
+                from .mixture import laplace_draws
+
+                theta, why = laplace_draws(Likelihood(prior_model, meas, noise="correlated"), fit,
+                                           _LAPLACE_DRAWS, rng)
+                if theta is None:
+                    warns.append({"code": "fast_white", "model": model.label, "run": label,
+                                  "short": "fast intervals from the white fit's covariance",
+                                  "message": f"no Gaussian approximation of the correlated posterior of "
+                                             f"{model.label} ({why}): the fast intervals are the "
+                                             "least-squares fit's, as if the model were exact"})
+            if theta is None:
+                theta = _laplace(params, params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS, rng)
         else:
             cut = meter is not None and meter.cut
             post = sample_posterior(meas, prior_model, fit=held_fit(fit, meter) if cut else fit,
-                                    seed=inp.seed, settings=inp.settings, progress=False)
+                                    seed=inp.seed, settings=inp.settings, progress=False, noise=inp.noise)
             if cut:
                 post = cut_posterior(post, fit, meter, inp.seed)
             if not post.converged:
@@ -295,9 +341,9 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             theta = post.theta()
         if mode != "point" and label == "free air":
             inp.curve = fit_curve(fit.model, theta, meas, fit.rms_rel_residual, inp.seed)
-        rec = {"rms": fit.rms_rel_residual,
+        rec = {"rms": fit.rms_rel_residual, "draws": mode != "point" and theta is not point,
                "undetermined": undetermined(fit.model.params, fit.theta, fit.cov_z),
-               "log_z": _single_evidence(meas, fit, prior_model) if inp.evidence else float("nan")}
+               "log_z": _single_evidence(meas, fit, prior_model, inp.noise) if inp.evidence else float("nan")}
         return fit.model, theta, point, rec
 
     if method == "free_air":
@@ -331,7 +377,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         else:
             pm = MultiMassModel(prior_model, jm.deltas).model
             x, info = sample_multi_mass(runs, deltas, pm, fit=mfit, seed=inp.seed, settings=inp.settings,
-                                        meter=meter)
+                                        meter=meter, noise=inp.noise)
             if not info["converged"]:
                 warns.append({"code": "not_converged", "model": model.label,
                               "short": "the joint posterior did not meet the stopping rule",
@@ -345,7 +391,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             out.append(_complete(free_air(model, theta), model, theta, inp, mms=xx[:, 0]))
         rec = {"model": model.label, "rms": float(np.sqrt(np.mean(np.square(mfit.rms_rel_residual)))),
                "undetermined": undetermined(jm.params, mfit.theta, mfit.cov_z),
-               "log_z": _joint_evidence(runs, mfit, prior_model) if inp.evidence else float("nan")}
+               "log_z": _joint_evidence(runs, mfit, prior_model, inp.noise) if inp.evidence else float("nan")}
         return out[0], out[1], rec
     # added volume
     bound, theta, point, rec_b = single(inp.meas, "free air")
@@ -381,6 +427,55 @@ def _volume(bound, bbound, theta, theta_c, vb, inp, warns, model):
     return ts
 
 
+def _rank_key(rec: dict) -> tuple:
+    """Order of candidates for the default model: determined first, then by log evidence."""
+    lz = rec["log_z"]
+    return (not rec["undetermined"], math.isfinite(lz), lz if math.isfinite(lz) else -math.inf)
+
+
+def _fit_candidates(models, method, inp, cand_mode, warns, comps) -> list[str]:
+    """Fit (and, for the mixture, approximate) each of ``models`` into ``comps[label] = (draws,
+    point values, record)``; a candidate that fails is reported in ``warns``. Returns the labels of
+    ``comps`` ranked by :func:`_rank_key`, best first."""
+    for cand in models:
+        if cand.label in comps:
+            continue
+        cw: list[dict] = []
+        try:
+            comps[cand.label] = _estimate(cand, method, inp, cand_mode, cw)
+        except Exception as exc:  # noqa: BLE001 - a candidate that cannot be fitted is reported, not fatal
+            warns.append({"code": "spread_model_failed", "model": cand.label,
+                          "short": "could not be fitted for the model spread",
+                          "message": f"candidate {cand.label} for the model spread could not be "
+                                     f"fitted: {exc}"})
+            continue
+        warns.extend(w for w in cw if w["code"] == "mixture_component_failed")
+    return sorted(comps, key=lambda m: _rank_key(comps[m][2]), reverse=True)
+
+
+def evidence_supported_model(meas: Measurement, *, noise: str = "white",
+                             candidates: Sequence | None = None) -> tuple[Model, dict[str, float]]:
+    """The model the evidence supports for one recording: the most probable (Laplace evidence under
+    the ``noise`` likelihood, equal prior odds, parameters determined) of ``candidates`` (default
+    :data:`AUTO_CANDIDATES`) and of the best of them with each of :data:`AUTO_TERMS`. Returns the
+    model and every candidate's posterior probability (``nan``-evidence candidates left out)."""
+    from .mixture import mixture_weights
+
+    inp = _Inputs(meas, [], None, None, None, None, None, 1.18, 343.0, 0, None, noise=noise)
+    comps: dict[str, tuple] = {}
+    warns: list[dict] = []
+    pool = [parse_model_spec(m) if isinstance(m, str) else m for m in (candidates or AUTO_CANDIDATES)]
+    ranked = _fit_candidates(pool, "free_air", inp, "point", warns, comps)
+    if not ranked:
+        raise DataFormatError(f"{meas.source}: none of the candidate models could be fitted")
+    if "+" not in ranked[0]:
+        _fit_candidates([parse_model_spec(f"{ranked[0]}+{t}") for t in AUTO_TERMS], "free_air", inp, "point",
+                        warns, comps)
+    best = max(comps, key=lambda m: _rank_key(comps[m][2]))
+    probs = mixture_weights({m: c[2]["log_z"] for m, c in comps.items() if not c[2]["undetermined"]})
+    return parse_model_spec(best), probs
+
+
 def _spread_models(main: Model, models_for_spread) -> list[Model]:
     if models_for_spread is not None:
         cands = [_model(m) for m in models_for_spread]
@@ -395,18 +490,20 @@ def _spread_models(main: Model, models_for_spread) -> list[Model]:
     return out
 
 
-def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple | None = None,
+def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple | None = None,
                  sd: float | None = None, re=None, mms: float | None = None, bl: float | None = None,
                  air_density: float = 1.18, sound_speed: float = 343.0, fast: bool = False, seed: int = 0,
                  models_for_spread: Sequence | None = None, f_range_hz: tuple | None = None,
                  exclude_band: Sequence | None = None,
-                 read_options: dict | None = None, settings=None) -> ThieleSmall:
+                 read_options: dict | None = None, settings=None, noise: str = "white") -> ThieleSmall:
     """Thiele–Small parameters with 90 % intervals and model spread (module docstring).
 
     Parameters
     ----------
     data : the free-air recording (a :class:`~bayes_emt.measurement.Measurement` or a file path).
-    model : model spec or :class:`~bayes_emt.models.Model` (default ``"UD"``).
+    model : model spec or :class:`~bayes_emt.models.Model`; ``None`` (default) or ``"auto"``: the
+        model the evidence supports among :data:`AUTO_CANDIDATES` and :data:`AUTO_TERMS` on the most
+        probable of them (``models_for_spread`` replaces the candidate list).
     loaded : ``[(recording, delta_m_kg), ...]``: added-mass recordings (method ``added_mass``).
     box : ``(recording, volume_m3)``: a sealed test box of known net volume (``added_volume``).
     sd : effective cone area Sd [m²] (Vas, η0, SPL; needed by ``added_volume`` for Cms, Mms, Bl).
@@ -425,6 +522,10 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
         (:meth:`~bayes_emt.measurement.Measurement.exclude_bands`: a cone break-up, a surround dip).
     read_options : keyword arguments of :func:`~bayes_emt.io.read_measurement` for file paths.
     settings : :class:`~bayes_emt.inference.sampling.SamplerSettings` (default the T/S budget).
+    noise : ``"white"`` (default: independent errors, the intervals if the model were exact; the
+        evidence-weighted model mixture carries the model-form uncertainty) or ``"correlated"``
+        (instrument noise plus a model discrepancy correlated over log-frequency,
+        :mod:`bayes_emt.inference.discrepancy`; slower, and on the truth corpus no better covered).
 
     Returns
     -------
@@ -479,39 +580,71 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"box volume must be a positive number of m^3, got {vb!r}")
         bx = (_measurement(rec, "box", read_options, f_range_hz, exclude_band), float(vb))
     method = "added_mass" if lm else "added_volume" if bx else "free_air"
+    if noise not in ("correlated", "white"):
+        raise ValueError(f"noise must be 'correlated' or 'white', got {noise!r}")
     inp = _Inputs(meas, lm, bx, sd, re_t, mms, bl, float(air_density), float(sound_speed), int(seed),
-                  settings if settings is not None else _ts_sampler())
-    candidates = _spread_models(main, models_for_spread)
-    inp.evidence = bool(candidates)
+                  settings if settings is not None else _ts_sampler(), noise=noise)
     warns: list[dict] = []
     mode = "laplace" if fast else "posterior"
+    # a mixture component per candidate (free air, posterior intervals), else its point values only
+    cand_mode = "component" if method == "free_air" and not fast else "point"
+    auto = main is None
+    comps: dict[str, tuple] = {}
+    if auto:  # the model the evidence supports: rank the candidates first, sample the most probable
+        pool = [parse_model_spec(m) for m in (models_for_spread or AUTO_CANDIDATES)]
+        inp.evidence = True
+        ranked = _fit_candidates(pool, method, inp, cand_mode, warns, comps)
+        if not ranked:
+            names = ", ".join(m.label for m in pool)
+            raise DataFormatError(f"{meas.source}: none of the candidate models {names} could be fitted")
+        best = ranked[0]
+        terms = [parse_model_spec(f"{best}+{t}") for t in AUTO_TERMS if "+" not in best]
+        _fit_candidates(terms, method, inp, cand_mode, warns, comps)
+        main = parse_model_spec(max(comps, key=lambda m: _rank_key(comps[m][2])))
+        candidates = [parse_model_spec(m) for m in comps if m != main.label]
+    else:
+        candidates = _spread_models(main, models_for_spread)
+        inp.evidence = bool(candidates)
+    inp.evidence = inp.evidence and not auto  # auto: the main model's evidence is already known
     draws, point_main, rec_main = _estimate(main, method, inp, mode, warns)
+    inp.evidence = True
 
     # model spread: point values of the adequate, determined, probable candidates (module docstring)
-    records, points = [rec_main], {rec_main["model"]: point_main}
+    records, points, comp_draws = [rec_main], {rec_main["model"]: point_main}, {rec_main["model"]: draws}
+    if auto:
+        rec_main["log_z"] = comps[main.label][2]["log_z"]
     for cand in candidates:
-        try:
-            _, pv, rec = _estimate(cand, method, inp, "point", [])
-        except Exception as exc:  # noqa: BLE001 - a candidate that cannot be fitted is reported, not fatal
-            warns.append({"code": "spread_model_failed", "model": cand.label,
-                          "short": "could not be fitted for the model spread",
-                          "message": f"candidate {cand.label} for the model spread could not be "
-                                     f"fitted: {exc}"})
+        if cand.label not in comps:
+            _fit_candidates([cand], method, inp, cand_mode, warns, comps)
+        if cand.label not in comps:
             continue
+        cd, pv, rec = comps[cand.label]
         records.append(rec)
         points[rec["model"]] = pv
+        if rec.get("draws"):
+            comp_draws[rec["model"]] = cd
     records = select_spread_models(records)
     included = [points[r["model"]] for r in records if r["included"]]
-    main_in = records[0]["included"]  # records[0] is the main model
-    better = [r for r in records[1:] if r["probability"] is not None and r["probability"] >= 0.5]
-    if not main_in and better:
+    # the mixture: the main model's posterior and the determined candidates' components, by evidence
+    weights = mixture_weights({r["model"]: r["log_z"] for r in records
+                               if r["model"] in comp_draws and (r["determined"] or r is records[0])})
+    if main.label not in weights:
+        weights = {main.label: 1.0}
+    def prob(r):  # the mixture's weight, else the spread's evidence probability
+        return weights.get(r["model"], r["probability"] if r["probability"] is not None else 0.0)
+
+    better = [r for r in records[1:] if prob(r) >= 0.5]
+    if better:
         b = better[0]
+        pb = prob(b)
         warns.append({"code": "better_model", "short": f"{b['model']} is more probable than {main.label} "
-                      f"(P = {b['probability']:.3g}): consider --model {b['model']}",
-                      "message": f"the candidate {b['model']} explains the data better than {main.label}: "
-                                 f"posterior model probability {b['probability']:.3g} (Laplace evidence, "
-                                 f"equal prior odds); {main.label} is outside the model spread, which shows "
-                                 "the values of the probable candidates; consider --model " + b["model"]})
+                      f"(P = {pb:.3g}): the intervals are the model mixture's; {main.label} alone under "
+                      "model_only", "message": f"the candidate {b['model']} explains the data better than "
+                      f"{main.label}: posterior model probability {pb:.3g} (Laplace evidence, equal prior "
+                      f"odds, {_NOISE_SHORT[noise]}); value and ci90 are the evidence-weighted mixture over "
+                      f"{', '.join(weights)} (the model spread shows the probable candidates' values), and "
+                      f"{main.label}'s own values are under model_only; "
+                      "--model " + b["model"] + " samples that model"})
 
     params = {}
     for name in NAMES:
@@ -524,16 +657,30 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
         lo, med, hi = np.quantile(v, [0.05, 0.5, 0.95])
         vals = [float(np.asarray(pv[name]).ravel()[0]) for pv in included if name in pv]
         vals = [x for x in vals if math.isfinite(x)]
-        params[name] = {"value": float(med), "ci90": [float(lo), float(hi)], "unit": UNITS[name],
-                        "model_spread": [min(vals), max(vals)] if len(vals) > 1 or (vals and not main_in)
-                        else None}
+        mv, mw = [], []
+        for m, w in weights.items():
+            x = np.asarray(comp_draws[m].get(name, np.nan), float).ravel()
+            if x.size and np.any(np.isfinite(x)):
+                mv.append(x)
+                mw.append(np.full(x.size, w / x.size))
+        mlo, mmed, mhi = (weighted_quantiles(np.concatenate(mv), np.concatenate(mw), [0.05, 0.5, 0.95])
+                          if len(mv) > 1 else (lo, med, hi))
+        params[name] = {"value": float(mmed), "ci90": [float(mlo), float(mhi)], "unit": UNITS[name],
+                        # never empty because a filter left one model: then that model's value alone,
+                        # and the mixture's weights say the evidence leaves no other
+                        "model_spread": [min(vals), max(vals)] if vals else None,
+                        "model_only": {"model": main.label, "value": float(med),
+                                       "ci90": [float(lo), float(hi)]}}
     warns += check_result(params, method=method, sd=sd, mms=mms, bl=bl, deltas=[d for _, d in lm])
     warns += setup_warnings(meas, None if bx is None else bx[0])
     if fast:
-        warns.append({"code": "fast_intervals", "short": "intervals from the fit's covariance (--fast), not "
-                      "the posterior", "message": "intervals from the least-squares fit's Gaussian "
-                      "approximation (its covariance, delta method by 4000 draws), not from the posterior: "
-                      "they can be too narrow where the posterior is skewed or the fit is poor"})
+        how = ("the Gaussian (Laplace) approximation of the posterior at its mode"
+               if noise == "correlated" and method == "free_air"
+               else "the least-squares fit's Gaussian approximation (its covariance)")
+        warns.append({"code": "fast_intervals", "short": "intervals from a Gaussian approximation (--fast), "
+                      "not the posterior", "message": f"intervals from {how}, delta method by 4000 draws, "
+                      "not from the posterior: they can be too narrow where the posterior is skewed or the "
+                      "fit is poor"})
     if "lambda_creep" in main.names:
         warns.append({"code": "creep_convention", "short": "fs, Qms by the LOG-creep convention (fs at zero "
                       "mechanical reactance); see the JSON",
@@ -555,7 +702,11 @@ def thiele_small(data, model="UD", *, loaded: Sequence[tuple] = (), box: tuple |
               "re": None if re_t is None else {"ohm": re_t.value, "sd_ohm": re_t.sd, "mode": re_t.mode},
               "mms_kg": mms, "bl_tm": bl, "air_density_kg_m3": inp.rho, "sound_speed_m_s": inp.c,
               "uncertainty": "laplace" if fast else "posterior", "seed": int(seed),
+              "noise": noise, "noise_model": NOISE_DESCRIPTION[noise],
               "model_spread_method": MODEL_SPREAD_METHOD,
+              "model_choice": "evidence" if auto else "requested",
+              "mixture": {"method": MIXTURE_METHOD if len(weights) > 1 else "the main model alone (no "
+                          "other candidate has a component and an evidence)", "weights": weights},
               "model_spread": {
                   "candidates": [r["model"] for r in records],
                   "included": [r["model"] for r in records if r["included"]],

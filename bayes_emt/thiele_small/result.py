@@ -41,9 +41,12 @@ class ThieleSmall:
     ----------
     model : the model spec the values come from.
     method : ``"free_air"``, ``"added_mass"`` or ``"added_volume"``.
-    parameters : ``{name: {"value", "ci90": [lo, hi] | None, "unit", "model_spread": [lo, hi] | None}}``
-        in SI (names and units: :data:`~bayes_emt.thiele_small.relations.UNITS`); ``value`` is the
-        posterior median (``fast``: the median of the fit's Gaussian approximation).
+    parameters : ``{name: {"value", "ci90": [lo, hi] | None, "unit", "model_spread": [lo, hi] | None,
+        "model_only"?: {"model", "value", "ci90"}}}`` in SI (names and units:
+        :data:`~bayes_emt.thiele_small.relations.UNITS`); ``value`` and ``ci90`` are the median and
+        5-95 % of the evidence-weighted mixture over the candidate models (``inputs["mixture"]``;
+        the main model alone when no other candidate has weight), ``model_only`` the main model's
+        own posterior (``fast``: the fit's Gaussian approximation).
     inputs : what was given (files, masses, box volume, Sd, ohmmeter reading, air) and how the
         intervals were obtained (``uncertainty``: ``"posterior"`` or ``"laplace"``).
     warnings : ``{"code", "message", "model"?, "band_hz"?}`` records.

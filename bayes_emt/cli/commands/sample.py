@@ -62,7 +62,7 @@ def register(sub) -> None:
     p = add_parser(sub, "sample", help="posterior by emcee with convergence diagnostics (DataTree out)",
                    description=__doc__, examples=EXAMPLES)
     p.add_argument("data", help="measurement file")
-    add_model_args(p)
+    add_model_args(p, required=False)
     add_data_args(p)
     add_exclude_band_arg(p)
     p.add_argument("--out", default=None,
@@ -76,6 +76,11 @@ def register(sub) -> None:
     p.add_argument("--max-steps", type=int_at_least(1), default=20000, help="step budget (default 20000)")
     p.add_argument("--likelihood", choices=["gaussian", "student"], default="gaussian",
                    help="noise distribution of the real and imaginary parts (student: robust to outliers)")
+    p.add_argument("--noise", choices=["correlated", "white"], default=None,
+                   help="white (default; the only choice with --likelihood student): independent errors, "
+                        "the posterior if the model were exact; correlated: instrument noise plus a model "
+                        "discrepancy correlated over log-frequency (slower; the docs' intervals page says "
+                        "what it does on real drivers)")
     p.add_argument("--nu", type=_nu, default=None,
                    help="Student-t degrees of freedom, or 'sample' to sample it (default 4; "
                         "with --likelihood student only)")
@@ -118,7 +123,18 @@ def run(args) -> int:
     nu = None if args.nu == "sample" else DEFAULT_NU if args.nu is None else args.nu
     if args.loaded is not None and nu is None:
         raise ValueError("--nu sample is not offered with --loaded; give a number of degrees of freedom")
-    model = model_from_args(args)
+    kind = args.noise or "white"
+    if args.model is None:  # the model the evidence supports for this recording
+        from ...thiele_small.compute import evidence_supported_model
+
+        opts0 = {"freq_unit": args.freq_unit, "phase_unit": args.phase_unit, "quantity": args.quantity}
+        meas0 = read_measurement(args.data, **opts0).select(args.omega_min, args.omega_max)
+        model, probs = evidence_supported_model(meas0.exclude_bands(args.exclude_band), noise=kind)
+        ws = ", ".join(f"{m} {p:.2g}" for m, p in sorted(probs.items(), key=lambda kv: -kv[1]))
+        print(f"model {model.label}: the most probable of the candidates (Laplace evidence, {kind} noise; "
+              f"probabilities {ws}); --model to choose another")
+    else:
+        model = model_from_args(args)
     stem = model.label.replace("(", "").replace(")", "") + ("_pair" if args.loaded is not None else "")
     out = Path(args.out or f"{Path(args.data).stem}_{stem}.nc")
     ckpt = Path(args.checkpoint) if args.checkpoint else out.with_suffix(".h5")
@@ -134,7 +150,10 @@ def run(args) -> int:
     loaded = None if args.loaded is None else read_measurement(args.loaded, **opts).select(args.omega_min,
                                                                                           args.omega_max)
     loaded = None if loaded is None else loaded.exclude_bands(args.exclude_band)
-    noise = noise_param_set(args.likelihood, nu)
+    if kind == "correlated" and args.likelihood == "student":
+        raise ValueError("--noise correlated needs the gaussian likelihood; use --noise white with "
+                         "--likelihood student")
+    noise = noise_param_set(args.likelihood, nu, kind)
     physical = None
     if args.priors:
         overrides = read_prior_file(args.priors)
@@ -174,7 +193,7 @@ def run(args) -> int:
     detail(args, f"checkpoint {ckpt}, seed {args.seed}, budget {args.max_steps} steps")
     common = {"seed": args.seed, "max_steps": args.max_steps, "checkpoint": ckpt, "resume": args.resume,
               "overwrite": args.overwrite, "progress": False if args.quiet else None,
-              "likelihood": args.likelihood, "nu": nu, "noise_params": noise}
+              "likelihood": args.likelihood, "nu": nu, "noise_params": noise, "noise": kind}
     from ...errors import Interrupted
     from ...inference.sampling import interruption
 

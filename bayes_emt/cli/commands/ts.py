@@ -46,7 +46,9 @@ def register(sub) -> None:
     p = add_parser(sub, "ts", help="Thiele-Small parameters with credible intervals (free air, added mass, "
                    "added volume)", description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
     p.add_argument("data", help="free-air recording")
-    p.add_argument("--model", default="UD", metavar="MODEL", help="model spec (default UD)")
+    p.add_argument("--model", default=None, metavar="MODEL",
+                   help="model spec (default: the model the evidence supports among II, III, UD, NL(3) and "
+                        "the most probable of them with a semi-inductance or suspension creep)")
     p.add_argument("--loaded", action="append", default=[], metavar="FILE",
                    help="a recording with an added mass (repeat; each needs its --delta-m, in order)")
     p.add_argument("--delta-m", action="append", type=quantity("mass", sign="nonzero"), default=[],
@@ -69,6 +71,11 @@ def register(sub) -> None:
                         "model's physics terms; 'none' for none)")
     p.add_argument("--fast", action="store_true",
                    help="intervals from the least-squares fit's covariance instead of the posterior")
+    p.add_argument("--noise", choices=["correlated", "white"], default="white",
+                   help="white (default): independent errors, the intervals if the model were exact (the "
+                        "model mixture carries model form); correlated: instrument noise plus a model "
+                        "discrepancy correlated over log-frequency (slower; on the truth corpus it did not "
+                        "improve coverage, see the docs' intervals page)")
     p.add_argument("--seed", type=seed, default=0, help="sampler seed (default 0)")
     add_data_args(p)
     add_exclude_band_arg(p)
@@ -104,7 +111,7 @@ def run(args) -> int:
                      box=None if args.box is None else (args.box, args.box_volume), sd=args.sd, re=meter,
                      mms=args.mms, bl=args.bl, air_density=args.air_density, sound_speed=args.sound_speed,
                      fast=args.fast, seed=args.seed, models_for_spread=spread, f_range_hz=f_range,
-                     exclude_band=args.exclude_band,
+                     exclude_band=args.exclude_band, noise=args.noise,
                      read_options={"freq_unit": args.freq_unit, "phase_unit": args.phase_unit,
                                    "quantity": args.quantity, "magnitude_only": args.magnitude_only})
     table = r.summary().splitlines()
@@ -116,6 +123,11 @@ def run(args) -> int:
     used = ", ".join(sp["included"]) or "no model"
     note(args, f"model spread over {used} of {', '.join(sp['candidates'])} "
                f"(model probabilities: {probs}; {r.inputs['model_spread_method']})")
+    mix = r.inputs.get("mixture") or {}
+    if len(mix.get("weights") or {}) > 1:
+        ws = ", ".join(f"{m} {w:.2g}" for m, w in sorted(mix["weights"].items(), key=lambda kv: -kv[1]))
+        print(f"90 % intervals: evidence-weighted mixture over the models (weights {ws}; {r.inputs['noise']} "
+              "noise)")
     if args.json:
         r.save(args.json)
         note(args, f"wrote {args.json}")

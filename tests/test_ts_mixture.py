@@ -1,0 +1,64 @@
+"""Model form in the T/S intervals (bayes_emt.thiele_small.mixture): weighted quantiles, evidence
+weights, the Laplace components, and the evidence-supported default model."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from bayes_emt import build_model, simulate
+from bayes_emt.inference.likelihood import Likelihood
+from bayes_emt.reference import PAPER_TABLES
+from bayes_emt.thiele_small import thiele_small
+from bayes_emt.thiele_small.compute import AUTO_CANDIDATES
+from bayes_emt.thiele_small.mixture import laplace_draws, mixture_weights, weighted_quantiles
+from bayes_emt.thiele_small.simulate import simulate_driver
+
+
+def test_weighted_quantiles_of_a_two_component_mixture():
+    rng = np.random.default_rng(0)
+    a, b = rng.normal(0, 1, 20000), rng.normal(10, 1, 5000)
+    # 0.75 / 0.25 weights whatever the draw counts: the median is in the first component
+    v = np.r_[a, b]
+    w = np.r_[np.full(a.size, 0.75 / a.size), np.full(b.size, 0.25 / b.size)]
+    q05, q50, q95 = weighted_quantiles(v, w, [0.05, 0.5, 0.95])
+    # exact mixture quantiles (the components do not overlap): N(0,1) below 0.75, N(10,1) above
+    assert q50 == pytest.approx(stats.norm.ppf(0.5 / 0.75), abs=0.04)
+    assert q05 == pytest.approx(stats.norm.ppf(0.05 / 0.75), abs=0.06)
+    assert q95 == pytest.approx(10 + stats.norm.ppf((0.95 - 0.75) / 0.25), abs=0.08)
+    assert np.isnan(weighted_quantiles([np.nan], [1.0], [0.5])).all()
+
+
+def test_mixture_weights_are_normalised_evidence_ratios():
+    w = mixture_weights({"A": 0.0, "B": math.log(3.0), "C": float("nan")})
+    assert set(w) == {"A", "B"} and w["B"] == pytest.approx(0.75) and w["A"] == pytest.approx(0.25)
+    assert mixture_weights({"A": float("nan")}) == {}
+
+
+def test_laplace_component_matches_the_fit_when_the_model_is_right():
+    """A simulated UD curve (0.5 % noise, 300 points): the Laplace component under the correlated
+    likelihood is centred on the truth within its own 3 sd, with a finite covariance."""
+    from bayes_emt.estimation.fitting import fit_admittance
+
+    model = build_model("UD")
+    truth = model.vector(PAPER_TABLES["UD"])
+    meas = simulate(model, truth, np.geomspace(10, 1e5, 300), noise=0.005, seed=4)
+    fit = fit_admittance(meas, model)
+    th, why = laplace_draws(Likelihood(model, meas, noise="correlated"), fit, 2000, np.random.default_rng(1))
+    assert th is not None, why
+    z = (np.log(np.median(th, axis=0)) - np.log(truth)) / np.std(np.log(th), axis=0)
+    assert np.all(np.abs(z) < 3), z
+
+
+def test_default_model_is_the_most_probable_candidate_and_the_mixture_is_reported():
+    sim = simulate_driver("UD", deltas=(), seed=2, n_points=300)
+    r = thiele_small(sim.free, fast=True)
+    sp = r.inputs["model_spread"]["models"]
+    assert r.inputs["model_choice"] == "evidence" and r.inputs["noise"] == "white"  # the default
+    assert set(AUTO_CANDIDATES) <= {m["model"] for m in sp}
+    ok = [m for m in sp if not m["undetermined"] and m["log_evidence"] is not None]
+    assert sp[0]["model"] == max(ok, key=lambda m: m["log_evidence"])["model"]  # the main model first
+    assert r.inputs["mixture"]["weights"]
+    for p in r.parameters.values():
+        assert p["model_spread"] is not None and p["model_only"]["model"] == sp[0]["model"]
