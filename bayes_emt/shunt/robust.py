@@ -105,6 +105,22 @@ class RobustShunt:
         return {**self.report, "warnings": list(self.warnings)}
 
 
+def _ticker(progress, what: str, every: float = 2.0):
+    """``callable(done, total)`` passing ``"what: done/total"`` to ``progress`` at most every
+    ``every`` seconds (and at the end); None without ``progress``."""
+    if progress is None:
+        return None
+    last = [time.perf_counter()]
+
+    def tick(done, total):
+        now = time.perf_counter()
+        if now - last[0] >= every or done == total:
+            last[0] = now
+            progress(f"{what}: {done}/{total}")
+
+    return tick
+
+
 def _margin_summary(m) -> dict:
     q = quantiles(m, [0.05, 0.5])
     return {"min": float(np.min(m)), "q05": float(q[0]), "median": float(q[1])}
@@ -244,7 +260,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
             med = np.median(g.thetas, axis=0)
             d = design_rc_shunt(g.model, med)
             start, r0 = (d.Rs, d.Cs), float(med[g.model.params.index("R0")])
-        opt = design_draws(bp, start, R0_start=r0)
+        opt = design_draws(bp, start, R0_start=r0, progress=_ticker(progress, f"{g.label} draws designed"))
         opt_rs.append(opt.Rs), opt_cs.append(opt.Cs), opt_att.append(opt.attenuation_db)
         opt_fb.append(opt.fallback), opt_margin.append(opt.margin)
         iters = max(iters, opt.iterations)

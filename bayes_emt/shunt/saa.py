@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize
 
-from .batch.peaks import rc_peaks_batch
+from .batch.peaks import SLOTS, rc_peaks_batch
 from .batch.plant import BatchPlant
 from .risk import RiskKind, cvar, risk_value
 
@@ -50,8 +50,9 @@ class PoolEval:
     Attributes
     ----------
     attenuation : ``(n,)`` [dB]; +inf where the loop is unstable.
-    slots : ``(n, 3)`` [dB] each peak (lower, upper, at the binding crossing; a missing one repeats
-        the largest). grads : ``(n, 3, 2)`` [dB per Ω, dB per unit ln Cs] or None.
+    slots : ``(n, SLOTS)`` [dB] each peak (lower, upper, at the binding crossing, the band's low
+        edge; a missing one repeats the largest). grads : ``(n, SLOTS, 2)`` [dB per Ω, dB per unit
+        ln Cs] or None.
     margin : ``(n,)`` ``Rs − threshold`` [Ω]. stable : ``(n,)``. threshold : ``(n,)`` [Ω].
     """
 
@@ -91,8 +92,9 @@ class DrawPool:
     def evaluate(self, Rs: float, Cs: float, *, gradients: bool = False, rows=None) -> PoolEval:
         """Score the shunt ``(Rs [Ω], Cs [F])`` on draws ``rows`` (default all)."""
         m = self.n if rows is None else len(rows)
-        att, slots = np.full(m, np.inf), np.full((m, 3), np.nan)
-        grads = np.full((m, 3, 2), np.nan) if gradients else None
+        # peak slots per draw: the two coarse maxima, the binding crossing, the band's low edge
+        att, slots = np.full(m, np.inf), np.full((m, SLOTS), np.nan)
+        grads = np.full((m, SLOTS, 2), np.nan) if gradients else None
         margin, stable, thr = np.empty(m), np.empty(m, bool), np.empty(m)
         for bp, pos, idx in self._split(rows):
             cr = bp.crossings(Cs, idx, Rs)
