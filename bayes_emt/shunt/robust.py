@@ -32,7 +32,7 @@ import numpy as np
 
 from .._json import strict_json
 from ..models import Model
-from .batch.design import design_draws
+from .batch.design import cs_bound, design_draws
 from .batch.peaks import rc_peaks_batch
 from .batch.plant import BatchPlant, SampledShunt
 from .design import design_rc_shunt, evaluate_rc_shunt
@@ -279,7 +279,10 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     on_nom = _on_draws(plants, "nominal", nom.Rs, nom.Cs, f"design_rc_shunt at the {nom_src}")
     pool = DrawPool([(bp, d) for bp, (d, _) in zip(plants, halves, strict=True)])
     starts = [(nom.Rs, nom.Cs), (float(np.median(opt_rs[design])), float(np.median(opt_cs[design])))]
-    choice = choose_robust(pool, starts, risk=risk, alpha=alpha, epsilon=epsilon)
+    # the Cs bound of single designs (1e3/(L_eq w0^2)), at the median draw of the tightest model
+    cs_max = float(min(np.exp(np.median(cs_bound(bp))) for bp in plants))
+    starts = [(r, min(c, cs_max)) for r, c in starts]
+    choice = choose_robust(pool, starts, risk=risk, alpha=alpha, epsilon=epsilon, cs_max=cs_max)
     on_rob = _on_draws(plants, "robust", choice.Rs, choice.Cs,
                        f"{risk} of the attenuation over the {int(design.sum())} design draws, "
                        f"P(unstable) <= {epsilon:g} per model")

@@ -204,7 +204,7 @@ def _phi(a, g, d, risk, alpha, n_eff):
     return float(w @ top), np.einsum("ik,ikq->q", lam, g), lam
 
 
-def _qp(a, g, B, risk, alpha, n_eff, stab, trust):
+def _qp(a, g, B, risk, alpha, n_eff, stab, trust, up=math.inf):
     """The SQP subproblem ``min_d ½ dᵀBd + Φ(d)`` (``Φ`` from :func:`_phi`, convex and piecewise
     linear) subject to the linearised stability limit ``stab = (c, ∇c)`` and ``|d| ≤ trust``, by
     cutting planes (proximal bundle: each cut is exact, the model is exact once it holds the pieces
@@ -230,7 +230,8 @@ def _qp(a, g, B, risk, alpha, n_eff, stab, trust):
         r0 = float(np.max(off + S @ d))
         res = optimize.minimize(lambda z: 0.5 * z[:2] @ B @ z[:2] + z[2], np.r_[d, r0],
                                 jac=lambda z: np.r_[B @ z[:2], 1.0], method="SLSQP",
-                                bounds=[(-trust[0], trust[0]), (-trust[1], trust[1]), (None, None)],
+                                bounds=[(-trust[0], trust[0]), (-trust[1], max(min(trust[1], up), -trust[1])),
+                                        (None, None)],
                                 constraints=[{"type": "ineq", "fun": cons, "jac": lambda z, jac=jac: jac},
                                              {"type": "ineq", "fun": lambda z: stab[0] + stab[1] @ z[:2],
                                               "jac": lambda z: np.r_[stab[1], 0.0][None, :]}],
@@ -245,7 +246,8 @@ def _qp(a, g, B, risk, alpha, n_eff, stab, trust):
     return d, lam
 
 
-def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int = 30):
+def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int = 30,
+         lcs_max: float = math.inf):
     """SQP on the SAA problem restricted to draws ``rows`` (module docstring): the Lagrangian's
     Hessian in ``x`` is ``Σ λ_ik ∇²a_ik`` with the peaks' Hessians from finite differences of
     their envelope gradients, so convergence is fast once the active pieces settle.
@@ -286,10 +288,12 @@ def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int
         for _ in range(2):
             B = np.einsum("ik,ikab->ab", lam, H)
             scale = max(float(np.max(np.abs(B))), 1e-12)
-            d, lam = _qp(e.slots, e.grads, _psd(B, 1e-8 * scale), risk, alpha, n_eff, stab, trust)
+            d, lam = _qp(e.slots, e.grads, _psd(B, 1e-8 * scale), risk, alpha, n_eff, stab, trust,
+                         lcs_max - x[1])
         step, accepted = 1.0, False
         for _ in range(12):
             xn = x + step * d
+            xn[1] = min(xn[1], lcs_max)
             en = evaluate(xn, True)
             fn = merit(en)
             if fn <= f:
@@ -309,9 +313,12 @@ def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int
 
 
 def choose_robust(pool: DrawPool, starts: Sequence[tuple[float, float]], *, risk: RiskKind = "cvar",
-                  alpha: float = 0.9, epsilon: float = 1e-3, max_rounds: int = 5) -> RobustChoice:
+                  alpha: float = 0.9, epsilon: float = 1e-3, max_rounds: int = 5,
+                  cs_max: float | None = None) -> RobustChoice:
     """The SAA-optimal shunt over ``pool`` (module docstring), from the best of ``starts``
-    (``(Rs [Ω], Cs [F])`` pairs; put the nominal design first)."""
+    (``(Rs [Ω], Cs [F])`` pairs; put the nominal design first). ``cs_max`` [F]: the upper bound on
+    Cs the designs of single draws respect (:func:`~bayes_emt.shunt.batch.design.cs_bound`); without
+    it a loudspeaker's robust Cs wandered to 1e7 F."""
     if not 0 <= epsilon < 1:
         raise ValueError(f"epsilon must be in [0, 1), got {epsilon!r}")
     allowed = _allowed(pool, epsilon)
@@ -339,7 +346,8 @@ def choose_robust(pool: DrawPool, starts: Sequence[tuple[float, float]], *, risk
         keep = ~excluded
         active = np.union1d(active, _active(ev, risk, alpha, keep)).astype(int)
         active = active[keep[active]]
-        x_new, rec = _sqp(pool, x, risk, alpha, active, int(np.count_nonzero(keep)), allowed, excluded)
+        x_new, rec = _sqp(pool, x, risk, alpha, active, int(np.count_nonzero(keep)), allowed, excluded,
+                          lcs_max=math.inf if cs_max is None else math.log(cs_max))
         ev_new = pool.evaluate(x_new[0], math.exp(x_new[1]))
         val = _score(pool, ev_new, risk, alpha, allowed)
         tail = _tail(ev_new, risk, alpha)
