@@ -116,7 +116,7 @@ def _ticker(progress, what: str, every: float = 2.0):
         now = time.perf_counter()
         if now - last[0] >= every or done == total:
             last[0] = now
-            progress(f"{what}: {done}/{total}")
+            progress(f"{what}: {done}" + ("" if total is None else f"/{total}"))
 
     return tick
 
@@ -192,7 +192,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
                         confidence: float = 0.95, seed: int = 0, sampled: SampledShunt | None = None,
                         ess_fraction: float = 1.0, boundary_points: int = 0,
                         notes: Sequence[str] = (), ohmmeter_tolerance: float | None = None,
-                        progress=None) -> RobustShunt:
+                        progress=None, time_budget: float | None = None) -> RobustShunt:
     """Shunt design under uncertainty (module docstring).
 
     Parameters
@@ -209,8 +209,10 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     boundary_points : Cs grid points of the stability-boundary data for plots (0: none).
     notes : warnings from reading the draws, carried into the result.
     ohmmeter_tolerance : [Ω] of a DC measurement of R0, compared with the stability margins too.
-    progress : optional ``callable(str)`` told when each stage starts (``shunt --posterior`` prints
-        these on stderr).
+    progress : optional ``callable(str)`` told when each stage starts and, every 2 s, how far the
+        long stages are (``shunt --posterior`` prints these on stderr).
+    time_budget : [wall s] for the robust choice (the slow stage); past it the best shunt so far is
+        kept and a warning says so (``demo`` gives the step its share of the run).
 
     Both shunts carry ``stability_margin_ohm`` (``Rs −`` the instability threshold at the nominal
     point) and the R0 uncertainty it is compared with (half the pooled draws' 90 % interval of R0,
@@ -282,7 +284,12 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     # the Cs bound of single designs (1e3/(L_eq w0^2)), at the median draw of the tightest model
     cs_max = float(min(np.exp(np.median(cs_bound(bp))) for bp in plants))
     starts = [(r, min(c, cs_max)) for r, c in starts]
-    choice = choose_robust(pool, starts, risk=risk, alpha=alpha, epsilon=epsilon, cs_max=cs_max)
+    tick = _ticker(progress, "choosing the robust shunt")
+    choice = choose_robust(pool, starts, risk=risk, alpha=alpha, epsilon=epsilon, cs_max=cs_max,
+                           time_budget=time_budget, tick=None if tick is None else (lambda m: tick(m, None)))
+    if choice.info.get("time_budget_reached"):
+        warns.append(f"the robust choice stopped at its time budget ({time_budget:g} s): the robust shunt is "
+                     "the best found by then, not a converged optimum")
     on_rob = _on_draws(plants, "robust", choice.Rs, choice.Cs,
                        f"{risk} of the attenuation over the {int(design.sum())} design draws, "
                        f"P(unstable) <= {epsilon:g} per model")

@@ -27,6 +27,7 @@ so the robust shunt is the nominal one.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -247,7 +248,7 @@ def _qp(a, g, B, risk, alpha, n_eff, stab, trust, up=math.inf):
 
 
 def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int = 30,
-         lcs_max: float = math.inf):
+         lcs_max: float = math.inf, deadline: float = math.inf, tick=None):
     """SQP on the SAA problem restricted to draws ``rows`` (module docstring): the Lagrangian's
     Hessian in ``x`` is ``Σ λ_ik ∇²a_ik`` with the peaks' Hessians from finite differences of
     their envelope gradients, so convergence is fast once the active pieces settle.
@@ -273,7 +274,12 @@ def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int
     msg = "iteration limit"
     it = 0
     while it < max_iter:
+        if time.perf_counter() > deadline:
+            msg = "time budget reached"
+            break
         it += 1
+        if tick is not None:
+            tick(f"iteration {it}, {risk} {f:.4f} dB" if math.isfinite(f) else f"iteration {it}")
         H = np.empty(e.grads.shape + (2,))
         for q in range(2):
             xq = x.copy()
@@ -314,11 +320,15 @@ def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int
 
 def choose_robust(pool: DrawPool, starts: Sequence[tuple[float, float]], *, risk: RiskKind = "cvar",
                   alpha: float = 0.9, epsilon: float = 1e-3, max_rounds: int = 5,
-                  cs_max: float | None = None) -> RobustChoice:
+                  cs_max: float | None = None, time_budget: float | None = None,
+                  tick=None) -> RobustChoice:
     """The SAA-optimal shunt over ``pool`` (module docstring), from the best of ``starts``
     (``(Rs [Ω], Cs [F])`` pairs; put the nominal design first). ``cs_max`` [F]: the upper bound on
     Cs the designs of single draws respect (:func:`~bayes_emt.shunt.batch.design.cs_bound`); without
-    it a loudspeaker's robust Cs wandered to 1e7 F."""
+    it a loudspeaker's robust Cs wandered to 1e7 F. ``time_budget`` [wall s]: stop the rounds
+    there and keep the best shunt so far (``info["time_budget_reached"]``). ``tick``: optional
+    ``callable(str)`` told each SQP iteration (progress)."""
+    deadline = math.inf if time_budget is None else time.perf_counter() + time_budget
     if not 0 <= epsilon < 1:
         raise ValueError(f"epsilon must be in [0, 1), got {epsilon!r}")
     allowed = _allowed(pool, epsilon)
@@ -341,13 +351,19 @@ def choose_robust(pool: DrawPool, starts: Sequence[tuple[float, float]], *, risk
     x = np.array([cur[1], math.log(cur[2])])
     ev = cur[3]
     active = np.empty(0, int)
-    for _ in range(max_rounds):
+    for rnd in range(max_rounds):
+        if time.perf_counter() > deadline:
+            info["time_budget_reached"] = True
+            break
         excluded = ~ev.stable
         keep = ~excluded
         active = np.union1d(active, _active(ev, risk, alpha, keep)).astype(int)
         active = active[keep[active]]
         x_new, rec = _sqp(pool, x, risk, alpha, active, int(np.count_nonzero(keep)), allowed, excluded,
-                          lcs_max=math.inf if cs_max is None else math.log(cs_max))
+                          lcs_max=math.inf if cs_max is None else math.log(cs_max), deadline=deadline,
+                          tick=None if tick is None else (lambda m, r=rnd: tick(f"round {r + 1}, {m}")))
+        if rec["message"] == "time budget reached":
+            info["time_budget_reached"] = True
         ev_new = pool.evaluate(x_new[0], math.exp(x_new[1]))
         val = _score(pool, ev_new, risk, alpha, allowed)
         tail = _tail(ev_new, risk, alpha)
