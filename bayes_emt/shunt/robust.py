@@ -54,6 +54,8 @@ class ShuntOnDraws:
     name : ``"nominal"`` or ``"robust"``. Rs, Cs : [Ω], [F].
     attenuation : ``(n,)`` [dB], +inf where unstable. margin : ``(n,)`` ``Rs − threshold`` [Ω].
     stable : ``(n,)``. source : where the shunt came from (one line).
+    resonance : ``(reduction [dB], frequency [Hz])`` ``(n,)`` each of the resonance peak (the largest
+        peak other than the design band's low edge; reduction re the open-terminal peak).
     """
 
     name: str
@@ -63,6 +65,7 @@ class ShuntOnDraws:
     margin: np.ndarray
     stable: np.ndarray
     source: str = ""
+    resonance: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,6 +108,20 @@ class RobustShunt:
         return {**self.report, "warnings": list(self.warnings)}
 
 
+def refuse_undefined(model: Model, theta, where: str = "") -> None:
+    """Raise a one-line ``ValueError`` when the shunt problem is not defined for ``model`` at
+    ``theta``: no mechanical resonance (damping ratio ζ ≥ 1/√2: the open-terminal receptance has no
+    peak for a shunt to lower) or no finite resonance frequency."""
+    zeta, omega0, _ = (float(v) for v in model.mechanics(np.asarray(theta, float)))
+    at = f" ({where})" if where else ""
+    if not (math.isfinite(omega0) and omega0 > 0):
+        raise ValueError(f"model {model.label}{at}: no mechanical resonance (omega0 = {omega0:.4g} rad/s), "
+                         "so there is no peak for a shunt to damp")
+    if not zeta < 1 / math.sqrt(2):
+        raise ValueError(f"model {model.label}{at}: damping ratio {zeta:.3g} >= 1/sqrt(2), the open-terminal "
+                         "receptance has no resonant peak, so there is nothing for a shunt to damp")
+
+
 def _ticker(progress, what: str, every: float = 2.0):
     """``callable(done, total)`` passing ``"what: done/total"`` to ``progress`` at most every
     ``every`` seconds (and at the end); None without ``progress``."""
@@ -129,7 +146,25 @@ def _margin_summary(m) -> dict:
 def _on_draws(plants, name, Rs, Cs, source) -> ShuntOnDraws:
     pool = DrawPool([(bp, np.arange(bp.n)) for bp in plants])
     ev = pool.evaluate(Rs, Cs)
-    return ShuntOnDraws(name, float(Rs), float(Cs), ev.attenuation, ev.margin, ev.stable, source)
+    return ShuntOnDraws(name, float(Rs), float(Cs), ev.attenuation, ev.margin, ev.stable, source,
+                        _resonance(plants, Rs, Cs))
+
+
+def _resonance(plants, Rs, Cs):
+    """``(reduction [dB], frequency [Hz])`` per draw of the resonance peak: the largest peak of
+    ``|m·G|`` that is not the design band's low edge, re the open-terminal peak (a loudspeaker's
+    figure: how much the shunt lowers its resonance, and where the resonance went)."""
+    red, freq = [], []
+    for bp in plants:
+        pb = rc_peaks_batch(bp, Rs, Cs, wide=False)
+        v = pb.value.copy()
+        v[:, -1] = np.nan  # the band-edge slot
+        v = np.where(np.isfinite(v), v, -np.inf)
+        k = np.argmax(v, axis=1)
+        top = v[np.arange(bp.n), k]
+        red.append(np.where(np.isfinite(top), -20 * np.log10(np.maximum(top, 1e-300) / bp.open_peak), np.nan))
+        freq.append(np.where(np.isfinite(top), pb.omega[np.arange(bp.n), k] / (2 * math.pi), np.nan))
+    return np.concatenate(red), np.concatenate(freq)
 
 
 def _design_report(on: ShuntOnDraws, res_parts, risk, alpha, confidence, eff) -> dict:
@@ -151,7 +186,15 @@ def _design_report(on: ShuntOnDraws, res_parts, risk, alpha, confidence, eff) ->
             "risk_db": risk_value(a, risk, alpha),
             "risk_design_half_db": risk_value(on.attenuation[~held & design], risk, alpha),
             "regret_db": summary(a - opt_att[held]),
-            "margin_ohm": _margin_summary(on.margin), "per_model": per_model, "source": on.source}
+            "margin_ohm": _margin_summary(on.margin), "per_model": per_model, "source": on.source,
+            "resonance_peak_reduction_db": _finite_summary(on.resonance[0][held & on.stable]),
+            "resonance_hz": _finite_summary(on.resonance[1][held & on.stable])}
+
+
+def _finite_summary(x) -> dict:
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    return summary(x) if x.size else {"median": None, "q05": None, "q95": None}
 
 
 def _safety(groups, nom_model, nom_theta, nom, on_rob, ohmmeter) -> dict:
@@ -245,6 +288,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
         g = groups[heavy]
         nominal = (g.model, np.median(g.thetas, axis=0), f"posterior median of {g.label}")
     nom_model, nom_theta, nom_src = nominal
+    refuse_undefined(nom_model, np.asarray(nom_theta, float), nom_src)
     t = time.perf_counter()
     stage(f"nominal design ({nom_src}) and {sum(g.n for g in groups)} draws' plants")
     nom = design_rc_shunt(nom_model, np.asarray(nom_theta, float))

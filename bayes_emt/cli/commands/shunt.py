@@ -169,6 +169,9 @@ def run(args) -> int:
                   "trusting this shunt's stability margin")
     r0_unc = r0_uncertainty_of_files(args.params, others=[args.evaluate_on] if args.evaluate_on else (),
                                      ohmmeter=ohmmeter)
+    from ...shunt.robust import refuse_undefined
+
+    refuse_undefined(model, theta, str(args.params))
     d = design_rc_shunt(model, theta, bandwidth=args.bandwidth, r0_uncertainty=r0_unc)
     out = d.to_json_dict()
     out["params"] = str(args.params)
