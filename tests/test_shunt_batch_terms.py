@@ -129,6 +129,11 @@ def test_margin_inside_the_posterior_r0_interval_is_flagged():
         assert (MARGIN_CODE in codes) == flagged[rel]
     assert flagged == {2e-3: False, 0.05: True}
     assert math.isfinite(nom["stability_margin_ohm"])
+    # the driver's terms: the resonance peak lowered (dB, 90 % interval) and where it went (Hz)
+    red, hz = nom["resonance_peak_reduction_db"], nom["resonance_hz"]
+    assert 0 < red["q05"] <= red["median"] <= red["q95"]
+    f0 = theta[model.params.index("omega0")] / (2 * math.pi)
+    assert f0 / 3 < hz["q05"] <= hz["q95"] < 4 * f0
 
 
 def test_undefined_shunt_problem_is_refused_in_one_line(tmp_path, capsys):

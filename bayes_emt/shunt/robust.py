@@ -152,14 +152,16 @@ def _on_draws(plants, name, Rs, Cs, source) -> ShuntOnDraws:
 
 def _resonance(plants, Rs, Cs):
     """``(reduction [dB], frequency [Hz])`` per draw of the resonance peak: the largest peak of
-    ``|m·G|`` that is not the design band's low edge, re the open-terminal peak (a loudspeaker's
-    figure: how much the shunt lowers its resonance, and where the resonance went)."""
+    ``|m·G|`` within ``f0/3 .. 4 f0`` (the shunt moves a loudspeaker's resonance up to ~2.7 f0), re
+    the open-terminal peak (a loudspeaker's figure: how much the shunt lowers its resonance, and where
+    the resonance went); NaN where no peak is left there (the resonance damped away)."""
     red, freq = [], []
     for bp in plants:
         pb = rc_peaks_batch(bp, Rs, Cs, wide=False)
         v = pb.value.copy()
         v[:, -1] = np.nan  # the band-edge slot
-        v = np.where(np.isfinite(v), v, -np.inf)
+        near = (pb.omega > bp.omega0[:, None] / 3) & (pb.omega < 4 * bp.omega0[:, None])
+        v = np.where(np.isfinite(v) & near, v, -np.inf)  # a peak within f0/3 .. 4 f0 (else: none left)
         k = np.argmax(v, axis=1)
         top = v[np.arange(bp.n), k]
         red.append(np.where(np.isfinite(top), -20 * np.log10(np.maximum(top, 1e-300) / bp.open_peak), np.nan))

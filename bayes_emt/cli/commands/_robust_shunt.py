@@ -145,6 +145,8 @@ def run_posterior(args, sampled) -> int:
         if red and red.get("median") is not None:
             print(f"{name}: resonance peak lowered by {_fmt_att(red, '.2f')} dB (median, 90 % interval over "
                   f"the stable held-back draws), the resonance now at {_fmt_att(hz, '.4g')} Hz")
+        elif red:
+            print(f"{name}: no resonance peak left within f0/3 .. 4 f0 (the response is flat there)")
     pd = rep["per_draw"]
     print(f"each draw's own optimum (median, 90 % interval): Rs {_fmt_att(pd['Rs'], '.5f')} ohm, "
           f"Cs {_fmt_att(pd['Cs'], '.5g')} F, attenuation {_fmt_att(pd['attenuation_db'])} dB "
