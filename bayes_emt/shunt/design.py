@@ -436,10 +436,40 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
     info["R0"] = plant.R0
     safety = check_margin(ev.Rs, ev.Cs, ev.Rs_instability, plant.R0, r0_uncertainty,
                           what=f"the {model.label} shunt")
+    band = _below_band(plant, rs, Cs, final, ev)
     return ShuntDesign(**asdict(ev), closed_form={**cf, "attenuation_db": cf_att},
                        peaks=tuple((p.omega, p.value) for p in final), optimum=optimum, info=info,
                        r0_uncertainty_ohm=safety.r0_uncertainty_ohm, r0_uncertainty=safety.r0_uncertainty,
-                       warnings=safety.warnings, notes=safety.notes)
+                       warnings=safety.warnings + band, notes=safety.notes)
+
+
+BELOW_BAND_CODE = "peak_below_design_band"
+
+
+def _below_band(plant: Plant, rs: float, Cs: float, final, ev) -> tuple:
+    """A warning when one of the design's peaks is the low end of the band it is optimised on
+    (``ω0/40``, :class:`Plant`): the shunt's electrical resonance with the coil then lies below
+    the band and the response there is higher than the attenuation says. It happens where the
+    optimum puts Cs on its upper bound (a loudspeaker: Cs of farads), and below the band the
+    receptance of any RC shunt returns to the static compliance ``1/ω0²`` at DC."""
+    edge = plant.omega[0]
+    if not any(abs(math.log(p.omega / edge)) < 1e-6 for p in final):
+        return ()
+    zs = lambda s: rc_impedance(s, rs, Cs)  # noqa: E731
+    w = np.geomspace(plant.omega0 / 1e5, edge, 4000)
+    g = np.abs(plant.receptance(w, zs))
+    i = int(np.argmax(g))
+    if not g[i] > ev.peak * (1 + 1e-6):
+        return ()
+    full = 20 * math.log10(g[i] / ev.peak_open)
+    static = 20 * math.log10(1.0 / (plant.omega0**2 * ev.peak_open))
+    return ({"code": BELOW_BAND_CODE, "message": (
+        f"the optimum balances the driver's resonance against the low end of the design band "
+        f"({edge / (2 * math.pi):.3g} Hz = f0/40): below it the shunt's electrical resonance "
+        f"(Cs = {Cs:.4g} F with the coil) reaches {full:.2f} dB re the open peak at "
+        f"{w[i] / (2 * math.pi):.3g} Hz, so over all "
+        f"frequencies the attenuation is {full:.2f} dB, not {ev.attenuation_db:.2f} dB; no RC shunt goes "
+        f"below the static compliance 1/omega0^2 ({static:.2f} dB here, the driver's Q limits it)")},)
 
 
 def design_from_json_dict(rec: dict, *, where: str = "shunt design"):

@@ -217,7 +217,7 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
                  confidence: float = 0.95, nominal=None, sampled=None,
                  ohmmeter_tolerance: float | None = None, sources: Sequence[str] | None = None,
                  boundary_points: int = 0,
-                 progress: bool = False) -> RobustShuntResult:
+                 progress: bool = False, time_budget: float | None = None) -> RobustShuntResult:
     """Nominal and robust RC shunt from one posterior or a mixture of several (module docstring).
 
     Parameters
@@ -234,7 +234,8 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
     ohmmeter_tolerance : [Ω], compared with the stability margins besides the posterior's R0 spread.
     sources : names of the posteriors (file paths) for the messages; default the model labels.
     boundary_points : Cs grid of the stability-boundary data (plots; 0: none).
-    progress : print a line on stderr as each stage starts.
+    progress : print a line on stderr as each stage starts (and every 2 s within the long ones).
+    time_budget : [wall s] for the robust choice; past it the best shunt so far, with a warning.
     """
     posts = list(posteriors) if isinstance(posteriors, list | tuple) else [posteriors]
     if not posts:
@@ -266,7 +267,8 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
     res = design_robust_shunt(groups, nominal=nominal, risk=risk, alpha=alpha, epsilon=epsilon,
                               confidence=confidence, seed=seed, sampled=sampled, ess_fraction=ess,
                               boundary_points=boundary_points, notes=notes + warns,
-                              ohmmeter_tolerance=ohmmeter_tolerance, progress=tell if progress else None)
+                              ohmmeter_tolerance=ohmmeter_tolerance, progress=tell if progress else None,
+                              time_budget=time_budget)
     return RobustShuntResult.from_robust(res)
 
 

@@ -32,7 +32,7 @@ import numpy as np
 
 from .._json import strict_json
 from ..models import Model
-from .batch.design import design_draws
+from .batch.design import cs_bound, design_draws
 from .batch.peaks import rc_peaks_batch
 from .batch.plant import BatchPlant, SampledShunt
 from .design import design_rc_shunt, evaluate_rc_shunt
@@ -54,6 +54,8 @@ class ShuntOnDraws:
     name : ``"nominal"`` or ``"robust"``. Rs, Cs : [Ω], [F].
     attenuation : ``(n,)`` [dB], +inf where unstable. margin : ``(n,)`` ``Rs − threshold`` [Ω].
     stable : ``(n,)``. source : where the shunt came from (one line).
+    resonance : ``(reduction [dB], frequency [Hz])`` ``(n,)`` each of the resonance peak (the largest
+        peak other than the design band's low edge; reduction re the open-terminal peak).
     """
 
     name: str
@@ -63,6 +65,7 @@ class ShuntOnDraws:
     margin: np.ndarray
     stable: np.ndarray
     source: str = ""
+    resonance: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,6 +108,36 @@ class RobustShunt:
         return {**self.report, "warnings": list(self.warnings)}
 
 
+def refuse_undefined(model: Model, theta, where: str = "") -> None:
+    """Raise a one-line ``ValueError`` when the shunt problem is not defined for ``model`` at
+    ``theta``: no mechanical resonance (damping ratio ζ ≥ 1/√2: the open-terminal receptance has no
+    peak for a shunt to lower) or no finite resonance frequency."""
+    zeta, omega0, _ = (float(v) for v in model.mechanics(np.asarray(theta, float)))
+    at = f" ({where})" if where else ""
+    if not (math.isfinite(omega0) and omega0 > 0):
+        raise ValueError(f"model {model.label}{at}: no mechanical resonance (omega0 = {omega0:.4g} rad/s), "
+                         "so there is no peak for a shunt to damp")
+    if not zeta < 1 / math.sqrt(2):
+        raise ValueError(f"model {model.label}{at}: damping ratio {zeta:.3g} >= 1/sqrt(2), the open-terminal "
+                         "receptance has no resonant peak, so there is nothing for a shunt to damp")
+
+
+def _ticker(progress, what: str, every: float = 2.0):
+    """``callable(done, total)`` passing ``"what: done/total"`` to ``progress`` at most every
+    ``every`` seconds (and at the end); None without ``progress``."""
+    if progress is None:
+        return None
+    last = [time.perf_counter()]
+
+    def tick(done, total):
+        now = time.perf_counter()
+        if now - last[0] >= every or done == total:
+            last[0] = now
+            progress(f"{what}: {done}" + ("" if total is None else f"/{total}"))
+
+    return tick
+
+
 def _margin_summary(m) -> dict:
     q = quantiles(m, [0.05, 0.5])
     return {"min": float(np.min(m)), "q05": float(q[0]), "median": float(q[1])}
@@ -113,7 +146,27 @@ def _margin_summary(m) -> dict:
 def _on_draws(plants, name, Rs, Cs, source) -> ShuntOnDraws:
     pool = DrawPool([(bp, np.arange(bp.n)) for bp in plants])
     ev = pool.evaluate(Rs, Cs)
-    return ShuntOnDraws(name, float(Rs), float(Cs), ev.attenuation, ev.margin, ev.stable, source)
+    return ShuntOnDraws(name, float(Rs), float(Cs), ev.attenuation, ev.margin, ev.stable, source,
+                        _resonance(plants, Rs, Cs))
+
+
+def _resonance(plants, Rs, Cs):
+    """``(reduction [dB], frequency [Hz])`` per draw of the resonance peak: the largest peak of
+    ``|m·G|`` within ``f0/3 .. 4 f0`` (the shunt moves a loudspeaker's resonance up to ~2.7 f0), re
+    the open-terminal peak (a loudspeaker's figure: how much the shunt lowers its resonance, and where
+    the resonance went); NaN where no peak is left there (the resonance damped away)."""
+    red, freq = [], []
+    for bp in plants:
+        pb = rc_peaks_batch(bp, Rs, Cs, wide=False)
+        v = pb.value.copy()
+        v[:, -1] = np.nan  # the band-edge slot
+        near = (pb.omega > bp.omega0[:, None] / 3) & (pb.omega < 4 * bp.omega0[:, None])
+        v = np.where(np.isfinite(v) & near, v, -np.inf)  # a peak within f0/3 .. 4 f0 (else: none left)
+        k = np.argmax(v, axis=1)
+        top = v[np.arange(bp.n), k]
+        red.append(np.where(np.isfinite(top), -20 * np.log10(np.maximum(top, 1e-300) / bp.open_peak), np.nan))
+        freq.append(np.where(np.isfinite(top), pb.omega[np.arange(bp.n), k] / (2 * math.pi), np.nan))
+    return np.concatenate(red), np.concatenate(freq)
 
 
 def _design_report(on: ShuntOnDraws, res_parts, risk, alpha, confidence, eff) -> dict:
@@ -135,7 +188,15 @@ def _design_report(on: ShuntOnDraws, res_parts, risk, alpha, confidence, eff) ->
             "risk_db": risk_value(a, risk, alpha),
             "risk_design_half_db": risk_value(on.attenuation[~held & design], risk, alpha),
             "regret_db": summary(a - opt_att[held]),
-            "margin_ohm": _margin_summary(on.margin), "per_model": per_model, "source": on.source}
+            "margin_ohm": _margin_summary(on.margin), "per_model": per_model, "source": on.source,
+            "resonance_peak_reduction_db": _finite_summary(on.resonance[0][held & on.stable]),
+            "resonance_hz": _finite_summary(on.resonance[1][held & on.stable])}
+
+
+def _finite_summary(x) -> dict:
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    return summary(x) if x.size else {"median": None, "q05": None, "q95": None}
 
 
 def _safety(groups, nom_model, nom_theta, nom, on_rob, ohmmeter) -> dict:
@@ -176,7 +237,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
                         confidence: float = 0.95, seed: int = 0, sampled: SampledShunt | None = None,
                         ess_fraction: float = 1.0, boundary_points: int = 0,
                         notes: Sequence[str] = (), ohmmeter_tolerance: float | None = None,
-                        progress=None) -> RobustShunt:
+                        progress=None, time_budget: float | None = None) -> RobustShunt:
     """Shunt design under uncertainty (module docstring).
 
     Parameters
@@ -193,8 +254,10 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     boundary_points : Cs grid points of the stability-boundary data for plots (0: none).
     notes : warnings from reading the draws, carried into the result.
     ohmmeter_tolerance : [Ω] of a DC measurement of R0, compared with the stability margins too.
-    progress : optional ``callable(str)`` told when each stage starts (``shunt --posterior`` prints
-        these on stderr).
+    progress : optional ``callable(str)`` told when each stage starts and, every 2 s, how far the
+        long stages are (``shunt --posterior`` prints these on stderr).
+    time_budget : [wall s] for the robust choice (the slow stage); past it the best shunt so far is
+        kept and a warning says so (``demo`` gives the step its share of the run).
 
     Both shunts carry ``stability_margin_ohm`` (``Rs −`` the instability threshold at the nominal
     point) and the R0 uncertainty it is compared with (half the pooled draws' 90 % interval of R0,
@@ -227,6 +290,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
         g = groups[heavy]
         nominal = (g.model, np.median(g.thetas, axis=0), f"posterior median of {g.label}")
     nom_model, nom_theta, nom_src = nominal
+    refuse_undefined(nom_model, np.asarray(nom_theta, float), nom_src)
     t = time.perf_counter()
     stage(f"nominal design ({nom_src}) and {sum(g.n for g in groups)} draws' plants")
     nom = design_rc_shunt(nom_model, np.asarray(nom_theta, float))
@@ -244,7 +308,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
             med = np.median(g.thetas, axis=0)
             d = design_rc_shunt(g.model, med)
             start, r0 = (d.Rs, d.Cs), float(med[g.model.params.index("R0")])
-        opt = design_draws(bp, start, R0_start=r0)
+        opt = design_draws(bp, start, R0_start=r0, progress=_ticker(progress, f"{g.label} draws designed"))
         opt_rs.append(opt.Rs), opt_cs.append(opt.Cs), opt_att.append(opt.attenuation_db)
         opt_fb.append(opt.fallback), opt_margin.append(opt.margin)
         iters = max(iters, opt.iterations)
@@ -263,7 +327,15 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     on_nom = _on_draws(plants, "nominal", nom.Rs, nom.Cs, f"design_rc_shunt at the {nom_src}")
     pool = DrawPool([(bp, d) for bp, (d, _) in zip(plants, halves, strict=True)])
     starts = [(nom.Rs, nom.Cs), (float(np.median(opt_rs[design])), float(np.median(opt_cs[design])))]
-    choice = choose_robust(pool, starts, risk=risk, alpha=alpha, epsilon=epsilon)
+    # the Cs bound of single designs (1e3/(L_eq w0^2)), at the median draw of the tightest model
+    cs_max = float(min(np.exp(np.median(cs_bound(bp))) for bp in plants))
+    starts = [(r, min(c, cs_max)) for r, c in starts]
+    tick = _ticker(progress, "choosing the robust shunt")
+    choice = choose_robust(pool, starts, risk=risk, alpha=alpha, epsilon=epsilon, cs_max=cs_max,
+                           time_budget=time_budget, tick=None if tick is None else (lambda m: tick(m, None)))
+    if choice.info.get("time_budget_reached"):
+        warns.append(f"the robust choice stopped at its time budget ({time_budget:g} s): the robust shunt is "
+                     "the best found by then, not a converged optimum")
     on_rob = _on_draws(plants, "robust", choice.Rs, choice.Cs,
                        f"{risk} of the attenuation over the {int(design.sum())} design draws, "
                        f"P(unstable) <= {epsilon:g} per model")

@@ -27,13 +27,14 @@ so the robust shunt is the nominal one.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import optimize
 
-from .batch.peaks import rc_peaks_batch
+from .batch.peaks import SLOTS, rc_peaks_batch
 from .batch.plant import BatchPlant
 from .risk import RiskKind, cvar, risk_value
 
@@ -50,8 +51,9 @@ class PoolEval:
     Attributes
     ----------
     attenuation : ``(n,)`` [dB]; +inf where the loop is unstable.
-    slots : ``(n, 3)`` [dB] each peak (lower, upper, at the binding crossing; a missing one repeats
-        the largest). grads : ``(n, 3, 2)`` [dB per Ω, dB per unit ln Cs] or None.
+    slots : ``(n, SLOTS)`` [dB] each peak (lower, upper, at the binding crossing, the band's low
+        edge; a missing one repeats the largest). grads : ``(n, SLOTS, 2)`` [dB per Ω, dB per unit
+        ln Cs] or None.
     margin : ``(n,)`` ``Rs − threshold`` [Ω]. stable : ``(n,)``. threshold : ``(n,)`` [Ω].
     """
 
@@ -91,8 +93,9 @@ class DrawPool:
     def evaluate(self, Rs: float, Cs: float, *, gradients: bool = False, rows=None) -> PoolEval:
         """Score the shunt ``(Rs [Ω], Cs [F])`` on draws ``rows`` (default all)."""
         m = self.n if rows is None else len(rows)
-        att, slots = np.full(m, np.inf), np.full((m, 3), np.nan)
-        grads = np.full((m, 3, 2), np.nan) if gradients else None
+        # peak slots per draw: the two coarse maxima, the binding crossing, the band's low edge
+        att, slots = np.full(m, np.inf), np.full((m, SLOTS), np.nan)
+        grads = np.full((m, SLOTS, 2), np.nan) if gradients else None
         margin, stable, thr = np.empty(m), np.empty(m, bool), np.empty(m)
         for bp, pos, idx in self._split(rows):
             cr = bp.crossings(Cs, idx, Rs)
@@ -202,7 +205,7 @@ def _phi(a, g, d, risk, alpha, n_eff):
     return float(w @ top), np.einsum("ik,ikq->q", lam, g), lam
 
 
-def _qp(a, g, B, risk, alpha, n_eff, stab, trust):
+def _qp(a, g, B, risk, alpha, n_eff, stab, trust, up=math.inf):
     """The SQP subproblem ``min_d ½ dᵀBd + Φ(d)`` (``Φ`` from :func:`_phi`, convex and piecewise
     linear) subject to the linearised stability limit ``stab = (c, ∇c)`` and ``|d| ≤ trust``, by
     cutting planes (proximal bundle: each cut is exact, the model is exact once it holds the pieces
@@ -228,7 +231,8 @@ def _qp(a, g, B, risk, alpha, n_eff, stab, trust):
         r0 = float(np.max(off + S @ d))
         res = optimize.minimize(lambda z: 0.5 * z[:2] @ B @ z[:2] + z[2], np.r_[d, r0],
                                 jac=lambda z: np.r_[B @ z[:2], 1.0], method="SLSQP",
-                                bounds=[(-trust[0], trust[0]), (-trust[1], trust[1]), (None, None)],
+                                bounds=[(-trust[0], trust[0]), (-trust[1], max(min(trust[1], up), -trust[1])),
+                                        (None, None)],
                                 constraints=[{"type": "ineq", "fun": cons, "jac": lambda z, jac=jac: jac},
                                              {"type": "ineq", "fun": lambda z: stab[0] + stab[1] @ z[:2],
                                               "jac": lambda z: np.r_[stab[1], 0.0][None, :]}],
@@ -243,7 +247,8 @@ def _qp(a, g, B, risk, alpha, n_eff, stab, trust):
     return d, lam
 
 
-def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int = 30):
+def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int = 30,
+         lcs_max: float = math.inf, deadline: float = math.inf, tick=None):
     """SQP on the SAA problem restricted to draws ``rows`` (module docstring): the Lagrangian's
     Hessian in ``x`` is ``Σ λ_ik ∇²a_ik`` with the peaks' Hessians from finite differences of
     their envelope gradients, so convergence is fast once the active pieces settle.
@@ -269,7 +274,12 @@ def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int
     msg = "iteration limit"
     it = 0
     while it < max_iter:
+        if time.perf_counter() > deadline:
+            msg = "time budget reached"
+            break
         it += 1
+        if tick is not None:
+            tick(f"iteration {it}, {risk} {f:.4f} dB" if math.isfinite(f) else f"iteration {it}")
         H = np.empty(e.grads.shape + (2,))
         for q in range(2):
             xq = x.copy()
@@ -284,10 +294,12 @@ def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int
         for _ in range(2):
             B = np.einsum("ik,ikab->ab", lam, H)
             scale = max(float(np.max(np.abs(B))), 1e-12)
-            d, lam = _qp(e.slots, e.grads, _psd(B, 1e-8 * scale), risk, alpha, n_eff, stab, trust)
+            d, lam = _qp(e.slots, e.grads, _psd(B, 1e-8 * scale), risk, alpha, n_eff, stab, trust,
+                         lcs_max - x[1])
         step, accepted = 1.0, False
         for _ in range(12):
             xn = x + step * d
+            xn[1] = min(xn[1], lcs_max)
             en = evaluate(xn, True)
             fn = merit(en)
             if fn <= f:
@@ -307,9 +319,16 @@ def _sqp(pool, x0, risk, alpha, rows, n_eff, allowed, excluded, *, max_iter: int
 
 
 def choose_robust(pool: DrawPool, starts: Sequence[tuple[float, float]], *, risk: RiskKind = "cvar",
-                  alpha: float = 0.9, epsilon: float = 1e-3, max_rounds: int = 5) -> RobustChoice:
+                  alpha: float = 0.9, epsilon: float = 1e-3, max_rounds: int = 5,
+                  cs_max: float | None = None, time_budget: float | None = None,
+                  tick=None) -> RobustChoice:
     """The SAA-optimal shunt over ``pool`` (module docstring), from the best of ``starts``
-    (``(Rs [Ω], Cs [F])`` pairs; put the nominal design first)."""
+    (``(Rs [Ω], Cs [F])`` pairs; put the nominal design first). ``cs_max`` [F]: the upper bound on
+    Cs the designs of single draws respect (:func:`~bayes_emt.shunt.batch.design.cs_bound`); without
+    it a loudspeaker's robust Cs wandered to 1e7 F. ``time_budget`` [wall s]: stop the rounds
+    there and keep the best shunt so far (``info["time_budget_reached"]``). ``tick``: optional
+    ``callable(str)`` told each SQP iteration (progress)."""
+    deadline = math.inf if time_budget is None else time.perf_counter() + time_budget
     if not 0 <= epsilon < 1:
         raise ValueError(f"epsilon must be in [0, 1), got {epsilon!r}")
     allowed = _allowed(pool, epsilon)
@@ -332,12 +351,19 @@ def choose_robust(pool: DrawPool, starts: Sequence[tuple[float, float]], *, risk
     x = np.array([cur[1], math.log(cur[2])])
     ev = cur[3]
     active = np.empty(0, int)
-    for _ in range(max_rounds):
+    for rnd in range(max_rounds):
+        if time.perf_counter() > deadline:
+            info["time_budget_reached"] = True
+            break
         excluded = ~ev.stable
         keep = ~excluded
         active = np.union1d(active, _active(ev, risk, alpha, keep)).astype(int)
         active = active[keep[active]]
-        x_new, rec = _sqp(pool, x, risk, alpha, active, int(np.count_nonzero(keep)), allowed, excluded)
+        x_new, rec = _sqp(pool, x, risk, alpha, active, int(np.count_nonzero(keep)), allowed, excluded,
+                          lcs_max=math.inf if cs_max is None else math.log(cs_max), deadline=deadline,
+                          tick=None if tick is None else (lambda m, r=rnd: tick(f"round {r + 1}, {m}")))
+        if rec["message"] == "time budget reached":
+            info["time_budget_reached"] = True
         ev_new = pool.evaluate(x_new[0], math.exp(x_new[1]))
         val = _score(pool, ev_new, risk, alpha, allowed)
         tail = _tail(ev_new, risk, alpha)

@@ -42,6 +42,9 @@ FULL = {"models": ("I", "II", "III", "UD", "NL", "UL"), "hankel": True,
         "loo": True, "bridge_seeds": 2}
 QUICK = {"models": ("I", "II", "NL"), "hankel": False, "methods": ("laplace", "bridge"), "max_steps": 300,
          "screen_steps": 0, "draws": 200, "loo": False, "bridge_seeds": 1}
+#: wall seconds the robust shunt's choice may take in a demo run (the rest of the chain and the
+#: report are written whatever it does)
+ROBUST_SHARE_S = 60.0
 #: steps --skip may leave out
 SKIPPABLE = ("robust_shunt", "diagnose")
 #: what the demo writes into its --out folder (besides fit_<MODEL>.json, evidence_runs/, diagnosis/)
@@ -418,8 +421,10 @@ def _robust(d: _Demo, post, fit, cfg) -> None:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
+            # its share of the run: the robust choice stops there and says so (the report is written)
             res = be.robust_shunt(post, nominal=fit, n_draws=cfg["draws"], seed=d.args.seed,
-                                  boundary_points=24)
+                                  boundary_points=24, progress=not getattr(d.args, "quiet", False),
+                                  time_budget=ROBUST_SHARE_S)
         res.save(d.out / "robust_shunt.json")
         for name, plot in (("shunt_robust_gain.png", plot_gain_bands),
                            ("shunt_robust_distributions.png", plot_attenuation_distributions),

@@ -105,6 +105,32 @@ def _fmt_margin(ev) -> str:
             f"(margin {ev.stability_margin:.4f} ohm{extra})")
 
 
+def name_peaks(d, model, theta) -> list[tuple[float, float, str]]:
+    """``(omega [rad/s], value [s²], what it is)`` for each peak of the design: the low end of the
+    band the design looks at (omega0/40: the shunt's electrical resonance with the coil lies at or
+    below it), the driver's mechanical resonance (open-terminal fs and where the shunt moved it), a
+    second mechanical mode, or the shunt's electrical resonance."""
+    from ...shunt.batch.plant import SPAN
+
+    _, w0, _ = (float(v) for v in model.mechanics(theta))
+    names = model.as_dict(theta)
+    modes = [(w0, f"the driver's mechanical resonance (open terminals {w0 / (2 * math.pi):.4g} Hz)")]
+    if "omega2" in names:
+        w2 = float(names["omega2"])
+        modes.append((w2, f"the second mechanical mode (open terminals {w2 / (2 * math.pi):.4g} Hz)"))
+    out = []
+    for w, v in d.peaks:
+        if abs(math.log(w / (w0 / SPAN))) < 1e-6:
+            name = (f"the low end of the design band (omega0/{SPAN:g}): the shunt's electrical resonance "
+                    "with the coil lies at or below it, and below it the response rises (see the warning)")
+        else:
+            near = min(modes, key=lambda m: abs(math.log(w / m[0])))
+            name = near[1] if abs(math.log(w / near[0])) < math.log(4.0) else (
+                "the shunt's electrical resonance (Cs with the coil's inductance)")
+        out.append((float(w), float(v), name))
+    return out
+
+
 def run(args) -> int:
     from ...io.paramfile import read_param_file, write_json
     from ...shunt import design_rc_shunt, evaluate_rc_shunt
@@ -146,6 +172,9 @@ def run(args) -> int:
                   "trusting this shunt's stability margin")
     r0_unc = r0_uncertainty_of_files(args.params, others=[args.evaluate_on] if args.evaluate_on else (),
                                      ohmmeter=ohmmeter)
+    from ...shunt.robust import refuse_undefined
+
+    refuse_undefined(model, theta, str(args.params))
     d = design_rc_shunt(model, theta, bandwidth=args.bandwidth, r0_uncertainty=r0_unc)
     out = d.to_json_dict()
     out["params"] = str(args.params)
@@ -158,9 +187,17 @@ def run(args) -> int:
           f"(peak at {d.peak_omega:.4g} rad/s = {d.peak_omega / (2 * math.pi):.4g} Hz)")
     detail(args, "  parameters: " + ", ".join(f"{s.name} = {v:.5g} {s.unit}"
                                               for s, v in zip(model.params, theta, strict=True)))
-    note(args, f"  fixed-point closed form: Rs = {cf['Rs']:.5f} ohm, Cs = {cf['Cs']:.5g} F "
-          f"({cf['attenuation_db']:.3f} dB; coil at omega0: L = {cf['L_eq']:.4g} H, "
-          f"R = {cf['R_eq']:.3g} ohm)")
+    if math.isfinite(cf["Rs"]):
+        note(args, f"  fixed-point closed form: Rs = {cf['Rs']:.5f} ohm, Cs = {cf['Cs']:.5g} F "
+              f"({cf['attenuation_db']:.3f} dB; coil at omega0: L = {cf['L_eq']:.4g} H, "
+              f"R = {cf['R_eq']:.3g} ohm)")
+    else:
+        note(args, "  no fixed-point closed form: the coupling is too strong for the coil's inductance "
+              f"(phi^2 >= 2 L omega0^2 with L = {cf['L_eq']:.4g} H at omega0), as for most loudspeakers; "
+              "the optimiser started from the coil tuned to omega0 instead")
+    for w, v, name in name_peaks(d, model, theta):
+        rel = 20 * math.log10(v / d.peak_open)
+        print(f"  peak at {w / (2 * math.pi):.4g} Hz ({w:.4g} rad/s), {rel:.2f} dB re the open peak: {name}")
     print("  " + _fmt_margin(d))
     unc = ("none given" if d.r0_uncertainty_ohm is None else f"{d.r0_uncertainty_ohm:.4g} ohm ("
            + ", ".join(f"{k} {v:.4g}" for k, v in d.r0_uncertainty.items()) + ")")

@@ -27,10 +27,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..design import design_rc_shunt
-from .peaks import PeakBatch, rc_peaks_batch
-from .plant import BatchPlant
+from .peaks import PeakBatch, grid_value, rc_peaks_batch
+from .plant import SPAN, BatchPlant
 
-__all__ = ["DrawOptima", "design_draws"]
+
+def terminal_impedance_series(model, s, thetas):
+    """``Ze(s)`` [Ω], the series (blocked) impedance the design's coil equivalent is read from."""
+    return model.electrical_impedance_s(s, thetas)
+
+__all__ = ["DrawOptima", "design_draws", "cs_bound"]
 
 _H_RS, _H_LCS = 1e-6, 1e-6
 _TOL = 1e-10
@@ -76,6 +81,27 @@ def _two_peaks(pb: PeakBatch):
     return lnh, lnw, g, ok
 
 
+_EDGE_GAP = 1e-9
+
+
+def _edge_first(pb, lnw, rows, bp):
+    """Whether the lower peak of each pair is the band's low edge ``ω0/SPAN``."""
+    return np.abs(lnw[:, 0] - np.log(bp.omega0[rows] / SPAN)) < 1e-9
+
+
+def _balance(bp, rows, rs, cs, lnh, lnw):
+    """``F1``: the two peaks' log-height difference; where the lower one is the band's edge, the
+    edge against the other peak's value on the nominal design's grid, less :data:`_EDGE_GAP` (the
+    nominal design's norm jumps where the edge passes that grid value, and its optimum sits just
+    before the jump)."""
+    F1 = lnh[:, 0] - lnh[:, 1]
+    e = np.flatnonzero(_edge_first(None, lnw, rows, bp))
+    if e.size:
+        gv = grid_value(bp, rows[e], np.exp(lnw[e, 1]), rs[e], cs[e])
+        F1[e] = lnh[e, 0] - gv + _EDGE_GAP
+    return F1
+
+
 def _cross(g):
     lo, hi = g[:, 0], g[:, 1]
     num = lo[:, 0] * hi[:, 1] - lo[:, 1] * hi[:, 0]
@@ -83,13 +109,27 @@ def _cross(g):
 
 
 def _f2_at(bp, idx, Rs, Cs, lnw):
-    pb = rc_peaks_batch(bp, Rs, Cs, idx, gradients=True, centres=np.exp(lnw))
+    pb = rc_peaks_batch(bp, Rs, Cs, idx, gradients=True, centres=np.exp(lnw), wide=False)
     lnh, _, g, ok = _two_peaks(pb)
     return _cross(g), ok
 
 
+def cs_bound(bp: BatchPlant) -> np.ndarray:
+    """``(n,)`` each draw's upper bound on ``ln Cs``, as :func:`design_rc_shunt` sets it:
+    ``Cs_max = 1e3/(L_eq ω0²)`` with ``L_eq = Im(Ze(jω0) − R0)/ω0`` (one model call per chunk)."""
+    out = np.empty(bp.n)
+    for a in range(0, bp.n, 64):
+        c = np.arange(a, min(a + 64, bp.n))
+        w0 = bp.omega0[c]
+        z = terminal_impedance_series(bp.model, 1j * w0, bp.thetas[c])
+        k = np.arange(c.size)
+        L = np.maximum((z[k, k] - bp.R0[c]).imag / w0, 1e-300)
+        out[c] = np.log(1e3 / (L * w0**2))
+    return out
+
+
 def design_draws(bp: BatchPlant, start: tuple[float, float], *, R0_start: float | None = None,
-                 max_iter: int = 25) -> DrawOptima:
+                 max_iter: int = 25, progress=None) -> DrawOptima:
     """Each draw's H∞-optimal RC shunt (module docstring).
 
     Parameters
@@ -98,47 +138,90 @@ def design_draws(bp: BatchPlant, start: tuple[float, float], *, R0_start: float 
     R0_start : the R0 [Ω] the start was designed for; each draw then starts from
         ``Rs + R0_start − R0`` (default: ``Rs`` as given).
     max_iter : Newton iterations before a draw is handed to :func:`design_rc_shunt`.
+    progress : optional ``callable(done, total)`` told as draws settle and as the fallback proceeds.
+
+    Where the start sits at the upper bound of Cs (:func:`cs_bound`; a loudspeaker: weak coupling,
+    Cs of farads, the optimum a near pure negative resistance), the draw is solved on that bound:
+    ``F1 = 0`` in Rs alone (the two peaks equal, their Rs-gradients opposite, and a larger Cs would
+    lower both: the Karush–Kuhn–Tucker conditions of the bounded min-max problem). A Newton step that
+    crosses the bound also lands the draw on it.
     """
     n = bp.n
     Rs = np.full(n, float(start[0]))
     if R0_start is not None:
         Rs = Rs + (R0_start - bp.R0)
-    lcs = np.full(n, math.log(start[1]))
+    lmax = cs_bound(bp)
+    lcs = np.minimum(np.full(n, math.log(start[1])), lmax)
+    bound = lcs >= lmax - 1e-6
+    lcs[bound] = lmax[bound]
     active = np.arange(n)
     iters = 0
     while active.size and iters < max_iter:
         iters += 1
         rs, cs = Rs[active], np.exp(lcs[active])
-        pb = rc_peaks_batch(bp, rs, cs, active, gradients=True)
+        pb = rc_peaks_batch(bp, rs, cs, active, gradients=True, wide=False)
         lnh, lnw, g, ok = _two_peaks(pb)
-        F1, F2 = lnh[:, 0] - lnh[:, 1], _cross(g)
-        f2r, okr = _f2_at(bp, active, rs + _H_RS, cs, lnw)
-        f2u, oku = _f2_at(bp, active, rs, cs * math.exp(_H_LCS), lnw)
-        J = np.empty((active.size, 2, 2))
-        J[:, 0] = g[:, 0] - g[:, 1]
-        J[:, 1, 0], J[:, 1, 1] = (f2r - F2) / _H_RS, (f2u - F2) / _H_LCS
-        det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
-        good = ok & okr & oku & np.isfinite(det) & (det != 0)
-        d = np.where(good, det, 1.0)
-        dR = -(J[:, 1, 1] * F1 - J[:, 0, 1] * F2) / d
-        dU = -(-J[:, 1, 0] * F1 + J[:, 0, 0] * F2) / d
+        # a pair with the band's low edge (:func:`~bayes_emt.shunt.batch.peaks.band_edge`) is solved
+        # to the edge lying _EDGE_GAP below the other peak: the nominal design's norm jumps where the
+        # edge becomes the largest value (its peak search then goes below the band), and its
+        # optimum sits on the side before that jump
+        F1 = _balance(bp, active, rs, cs, lnh, lnw)
+        b = bound[active]
+        J00 = g[:, 0, 0] - g[:, 1, 0]
+        dR, dU = np.zeros(active.size), np.zeros(active.size)
+        good = ok.copy()
+        # on the bound: F1 = 0 in Rs alone
+        gb = good & b & np.isfinite(J00) & (J00 != 0)
+        dR[gb] = -F1[gb] / J00[gb]
+        good[b] = gb[b]
+        free = np.flatnonzero(~b & ok)
+        if free.size:
+            sub = active[free]
+            F2 = _cross(g[free])
+            f2r, okr = _f2_at(bp, sub, rs[free] + _H_RS, cs[free], lnw[free])
+            f2u, oku = _f2_at(bp, sub, rs[free], cs[free] * math.exp(_H_LCS), lnw[free])
+            J = np.empty((free.size, 2, 2))
+            J[:, 0] = g[free, 0] - g[free, 1]
+            J[:, 1, 0], J[:, 1, 1] = (f2r - F2) / _H_RS, (f2u - F2) / _H_LCS
+            det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
+            gf = okr & oku & np.isfinite(det) & (det != 0)
+            d = np.where(gf, det, 1.0)
+            f1 = F1[free]
+            dR[free] = np.where(gf, -(J[:, 1, 1] * f1 - J[:, 0, 1] * F2) / d, 0.0)
+            dU[free] = np.where(gf, -(-J[:, 1, 0] * f1 + J[:, 0, 0] * F2) / d, 0.0)
+            good[free] = gf
         scale = np.minimum(1.0, np.minimum(0.02 / np.maximum(np.abs(dR), 1e-300),
                                            0.1 / np.maximum(np.abs(dU), 1e-300)))
-        Rs[active[good]] += (scale * dR)[good]
-        lcs[active[good]] += (scale * dU)[good]
+        ag = active[good]
+        Rs[ag] += (scale * dR)[good]
+        lcs[ag] += (scale * dU)[good]
+        hit = ag[lcs[ag] > lmax[ag]]
+        lcs[hit], bound[hit] = lmax[hit], True
         done = good & (np.abs(dR) < _TOL) & (np.abs(dU) < _TOL)
         active = active[~done & good]
+        if progress is not None:
+            progress(n - active.size, n)
     Cs = np.exp(lcs)
     pb = rc_peaks_batch(bp, Rs, Cs, gradients=True)
     lnh, _, g, ok = _two_peaks(pb)
     margin = bp.margin(Rs, Cs)
+    equal = np.abs(_balance(bp, np.arange(n), Rs, Cs, lnh, _two_peaks(pb)[1])) < 1e-7
     anti = np.einsum("ij,ij->i", g[:, 0], g[:, 1]) < 0
-    fine = ok & anti & (np.abs(lnh[:, 0] - lnh[:, 1]) < 1e-7) & (np.abs(_cross(g)) < 1e-6) & (margin > 0)
+    interior = ok & ~bound & anti & equal & (np.abs(_cross(g)) < 1e-6)
+    # on the bound: Rs-gradients opposite; the combination with zero Rs-gradient falls with Cs
+    gr_lo, gr_hi = g[:, 0, 0], g[:, 1, 0]
+    lam = np.where(gr_hi != gr_lo, gr_hi / np.where(gr_hi != gr_lo, gr_hi - gr_lo, 1.0), np.nan)
+    kkt = (gr_lo * gr_hi < 0) & (lam * g[:, 0, 1] + (1 - lam) * g[:, 1, 1] < 0)
+    on_bound = ok & bound & equal & kkt
+    fine = (interior | on_bound) & (margin > 0)
     fine[active] = False
     att = 20 * np.log10(pb.hinf / bp.open_peak)
     fallback = ~fine
-    for i in np.flatnonzero(fallback):
+    todo = np.flatnonzero(fallback)
+    for k, i in enumerate(todo):
         d = design_rc_shunt(bp.model, bp.thetas[i], start=(float(Rs[i]) if np.isfinite(Rs[i]) else start[0],
                                                             float(Cs[i]) if np.isfinite(Cs[i]) else start[1]))
         Rs[i], Cs[i], att[i], margin[i] = d.Rs, d.Cs, d.attenuation_db, d.stability_margin
+        if progress is not None:
+            progress(n - todo.size + k + 1, n)
     return DrawOptima(Rs, Cs, att, margin, fallback, iters)

@@ -31,9 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..receptance import Plant, rc_impedance, receptance
-from .plant import BatchPlant, Crossings
+from .plant import SPAN, BatchPlant, Crossings
 
-__all__ = ["PeakBatch", "rc_peaks_batch"]
+__all__ = ["PeakBatch", "rc_peaks_batch", "band_edge", "grid_value", "SLOTS"]
 
 COARSE = 0.012  # Δ log ω of the coarse grid
 FINE = COARSE / 8
@@ -43,6 +43,51 @@ _UNION = 400  # bands evaluated in one model call for every draw while their uni
 _SHARP = 40  # a peak narrower than this many fine steps (log-width) is resampled 8 times finer
 # quartic through t = -2..2: coefficients = _VINV @ values
 _VINV = np.linalg.inv(np.vander(np.arange(-2.0, 3.0), 5, increasing=True))
+#: log-frequency step of the nominal design's grid (:class:`Plant`: 2600 points over ω0/40 .. 40 ω0)
+_PLANT_STEP = float(np.log(SPAN * SPAN) / 2599)
+_DIAG_CHUNK = 64  # draws per model call when each draw has its own frequency
+SLOTS = 4  # peak slots of a search from scratch: two coarse maxima, the binding crossing, the low edge
+
+
+def grid_value(bp, rows, omega, Rs, Cs):
+    """``ln|m·G|`` at the nominal design's grid point nearest ``omega`` (per draw) and its two
+    neighbours, the largest of the three: the value :meth:`Plant.local_peaks` compares a band edge
+    with before it searches below the band."""
+    m = rows.size
+    out = np.full(m, np.nan)
+    lo = np.log(bp.omega0[rows] / SPAN)
+    k = np.rint((np.log(omega) - lo) / _PLANT_STEP)
+    for a in range(0, m, _DIAG_CHUNK):
+        c = np.arange(a, min(a + _DIAG_CHUNK, m))
+        om = np.concatenate([np.exp(lo[c] + (k[c] + j) * _PLANT_STEP) for j in (-1, 0, 1)])
+        f, _ = _log_receptance(bp, rows[c], om, Rs[c], Cs[c])
+        i = np.arange(c.size)
+        out[c] = np.max(np.stack([f[i, j * c.size + i] for j in range(3)]), axis=0)
+    return out
+
+
+def band_edge(bp, rows, Rs, Cs, delta=None):
+    """The low end of each draw's band, ``ω0/SPAN``, where the nominal design's grid starts:
+    ``(ln|m·G| there, whether it exceeds its inward grid neighbour, gradient or None)``.
+
+    The nominal design (:meth:`Plant.local_peaks`) counts a band edge where ``|m·G|`` falls inward as
+    a peak; a loudspeaker's optimal shunt (Cs of farads) makes that edge one of its two equal
+    peaks, so the batched design must see it too (each draw at its own ω0, one model call per
+    :data:`_DIAG_CHUNK` draws).
+    """
+    m = rows.size
+    f_e, f_n = np.full(m, np.nan), np.full(m, np.nan)
+    g_e = np.full((m, 2), np.nan) if delta is not None else None
+    for a in range(0, m, _DIAG_CHUNK):
+        c = np.arange(a, min(a + _DIAG_CHUNK, m))
+        we = bp.omega0[rows[c]] / SPAN
+        om = np.concatenate([we, we * np.exp(_PLANT_STEP)])
+        f, g = _log_receptance(bp, rows[c], om, Rs[c], Cs[c], delta)
+        k = np.arange(c.size)
+        f_e[c], f_n[c] = f[k, k], f[k, c.size + k]
+        if g is not None:
+            g_e[c] = g[k, k]
+    return f_e, f_e > f_n, g_e
 
 
 @dataclass(frozen=True)
@@ -201,7 +246,7 @@ def _coarse(bp, rows, Rs, Cs, cross: Crossings):
     w0 = bp.omega0[rows]
     lo = np.where(np.isfinite(cross.omega_min), cross.omega_min * 0.8, w0 / 2.5)
     hi = np.where(np.isfinite(cross.omega_max), cross.omega_max * 1.25, w0 * 2.5)
-    lo, hi = np.log(np.maximum(lo, w0 / 20)), np.log(np.minimum(hi, w0 * 20))
+    lo, hi = np.log(np.maximum(lo, w0 / SPAN)), np.log(np.minimum(hi, w0 * SPAN))
     x = np.arange(lo.min() - COARSE, hi.max() + 2 * COARSE, COARSE)
     f, _ = _log_receptance(bp, rows, np.exp(x), Rs, Cs)
     f = np.where((x[None, :] >= lo[:, None]) & (x[None, :] <= hi[:, None]), f, -np.inf)
@@ -229,7 +274,9 @@ def _exact_rows(bp, rows, Rs, Cs, delta, out_v, out_w, out_g, where):
     for i in where:
         r = rows[i]
         zs = lambda s, i=i: rc_impedance(s, Rs[i], Cs[i])  # noqa: E731
-        pk = sorted(Plant(bp.model, bp.thetas[r]).local_peaks(zs), key=lambda p: -p.value)[:3]
+        # as many peaks as the caller has slots (K = 2 when it passes known centres, 3 otherwise): a
+        # model with a second mechanical mode or creep can show more (it was an IndexError)
+        pk = sorted(Plant(bp.model, bp.thetas[r]).local_peaks(zs), key=lambda p: -p.value)[: out_v.shape[1]]
         out_v[i] = np.nan
         out_w[i] = np.nan
         for k, p in enumerate(pk):
@@ -242,7 +289,7 @@ def _exact_rows(bp, rows, Rs, Cs, delta, out_v, out_w, out_g, where):
 
 
 def rc_peaks_batch(bp: BatchPlant, Rs, Cs, idx=None, *, gradients: bool = False,
-                   centres=None, crossings: Crossings | None = None) -> PeakBatch:
+                   centres=None, crossings: Crossings | None = None, wide: bool = True) -> PeakBatch:
     """Local maxima of ``|m·G|`` for the RC shunt(s) ``(Rs [Ω], Cs [F])`` on draws ``idx``.
 
     Parameters
@@ -251,6 +298,8 @@ def rc_peaks_batch(bp: BatchPlant, Rs, Cs, idx=None, *, gradients: bool = False,
     idx : draws to evaluate (default all). gradients : also ``d ln h/d(Rs, ln Cs)``.
     centres : ``(m, K)`` known peak frequencies [rad/s] (skips the coarse search: for small
         changes of the shunt, as in finite differences). crossings : reuse thresholds for ``Cs``.
+    wide : where the band's low edge is the largest value, search below the band as the nominal
+        design does (exact, one draw at a time); False: keep the edge's value (Newton iterates).
     """
     rows = np.arange(bp.n) if idx is None else np.asarray(idx)
     m = rows.size
@@ -264,6 +313,8 @@ def rc_peaks_batch(bp: BatchPlant, Rs, Cs, idx=None, *, gradients: bool = False,
         cent, escaped = _coarse(sub, local, Rs, Cs, cross)
     else:
         cent = np.log(np.asarray(centres, float))
+        # a known peak at the band edge is the edge itself (refining would walk out of the band)
+        cent = np.where(np.abs(cent - np.log(sub.omega0 / SPAN)[:, None]) < 1e-9, np.nan, cent)
     K = cent.shape[1]
     delta = 1e-6 * float(np.median(sub.R0)) if gradients else None
     value, omega = np.full((m, K), np.nan), np.full((m, K), np.nan)
@@ -279,5 +330,15 @@ def rc_peaks_batch(bp: BatchPlant, Rs, Cs, idx=None, *, gradients: bool = False,
     failed = np.zeros(m, bool)
     failed[jr[~good & (jk < 2)]] = True
     failed |= escaped | ~np.isfinite(value).any(axis=1)
+    # last slot: the low band edge where |m·G| falls inward (a peak of the nominal design's grid)
+    fe, is_peak, ge = band_edge(sub, local, Rs, Cs, delta)
+    value = np.concatenate([value, np.where(is_peak, np.exp(fe), np.nan)[:, None]], axis=1)
+    omega = np.concatenate([omega, np.where(is_peak, sub.omega0 / SPAN, np.nan)[:, None]], axis=1)
+    if gradients:
+        grad = np.concatenate([grad, np.where(is_peak[:, None], ge, np.nan)[:, None]], axis=1)
+    # the edge the largest value: the nominal design searches below the band (Plant.local_peaks)
+    if wide:
+        failed |= is_peak & ~(np.exp(fe) < np.nanmax(np.where(np.isfinite(value[:, :-1]), value[:, :-1], 0.0),
+                                                  axis=1, initial=0.0))
     _exact_rows(sub, local, Rs, Cs, delta, value, omega, grad, np.flatnonzero(failed))
     return PeakBatch(value, omega, grad, failed)

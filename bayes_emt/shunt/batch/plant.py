@@ -33,6 +33,12 @@ from ..receptance import open_peak
 __all__ = ["terminal_impedance", "SampledShunt", "Crossings", "BatchPlant"]
 
 _CHUNK = 128  # draws per model call while filling the impedance cache
+#: the shunted peaks are looked for within ``ω0/SPAN .. SPAN ω0``, the nominal design's grid
+#: (:class:`~bayes_emt.shunt.Plant`). A loudspeaker's optimal shunt has Cs of farads and puts one of
+#: its two equal peaks at the low end of that band (LS10-44, UD: 0.85 Hz for fs = 34 Hz); a narrower
+#: window (it was ω0/20) missed that peak on every draw, so the batched Newton never settled and
+#: every draw fell back to the one-at-a-time design.
+SPAN = 40.0
 
 
 def terminal_impedance(model: Model, s, thetas):
@@ -92,8 +98,9 @@ class Crossings:
     ----------
     threshold : ``(n,)`` the Rs [Ω] below which each draw's loop is unstable (−inf: never).
     omega_c : ``(n,)`` frequency [rad/s] of the binding crossing (NaN when there is none).
-    omega_min, omega_max : ``(n,)`` lowest and highest crossing [rad/s] within ``ω0/20 .. 20 ω0``
-        (where the shunted peaks sit; NaN when there is none).
+    omega_min, omega_max : ``(n,)`` lowest and highest crossing [rad/s] within ``ω0/SPAN .. SPAN ω0``
+        (where the shunted peaks sit, the electrical resonance of a shunt of farads included; NaN
+        when there is none).
     upper : ``(n,)`` sampled-data shunts: the Rs [Ω] above which the loop is unstable again
         (+inf for the ideal shunt, or when not asked for).
     """
@@ -248,7 +255,7 @@ class BatchPlant:
             thr[has] = np.maximum(thr[has], -val)
             omega_c[has] = np.where(-val >= inf[has], np.exp(xr), np.nan)
         wc = np.exp(x[c] + (x[c + 1] - x[c]) * frac)
-        near = (wc > omega0[r] / 20) & (wc < omega0[r] * 20)
+        near = (wc > omega0[r] / SPAN) & (wc < omega0[r] * SPAN)
         wmin, wmax = np.full(m, np.inf), np.full(m, -np.inf)
         np.minimum.at(wmin, r[near], wc[near])
         np.maximum.at(wmax, r[near], wc[near])

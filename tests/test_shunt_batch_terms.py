@@ -1,0 +1,168 @@
+"""The per-draw shunt design (``shunt/batch``) against the one-at-a-time design, for every catalogue
+term, a second mechanical mode, and a loudspeaker (issue 32); the stability margin judged against a
+posterior's R0 interval (issue 31).
+
+The batched Newton (:func:`~bayes_emt.shunt.batch.design.design_draws`) must return each draw's
+H∞-optimal ``(Rs, Cs)`` and attenuation equal to :func:`~bayes_emt.shunt.design_rc_shunt`. Tolerance:
+1e-6 relative on Rs and the attenuation; on Cs 1e-6 for an interior optimum and 2e-5 where the optimum
+lies on the upper bound of Cs (a loudspeaker: Cs of farads), because the one-at-a-time design's
+Nelder–Mead stops within its tolerance of the bound (measured 5e-6 in ln Cs on LS10-44 draws) while the
+batched design lands on it.
+
+The loudspeaker is the Dayton LS10-44 woofer's UD posterior median (../shared/realdata, free air,
+fit by ``sample``): ζ 0.1034, ω0 213.76 rad/s (fs 34.0 Hz), φ 58.54 N/(A kg^0.5), R0 8.5616 Ω,
+Lg 1.597 mH, α 5.093e-3, β 0.2901; the catalogue terms take their sizes from tests/test_catalogue.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bayes_emt import build_model
+from bayes_emt.reference import PAPER_TABLES
+from bayes_emt.shunt import design_rc_shunt
+from bayes_emt.shunt.batch.design import design_draws
+from bayes_emt.shunt.batch.peaks import rc_peaks_batch
+from bayes_emt.shunt.batch.plant import BatchPlant
+from bayes_emt.shunt.draws import DrawGroup
+from bayes_emt.shunt.robust import design_robust_shunt
+from bayes_emt.shunt.safety import MARGIN_CODE
+
+LS10_44 = {"zeta": 0.10341809777195743, "omega0": 213.7593843475715, "phi": 58.54399567993609,
+           "R0": 8.561617766689015, "Lg": 0.0015970058167539365, "alpha": 0.005093133126425686,
+           "beta": 0.2901108557472927}
+#: the catalogue's terms at the sizes tests/test_catalogue.py uses, on the paper's shaker
+CASES = {
+    "winding_capacitance": ("UD", {"Cp": 5e-9}),
+    "second_resonance": ("UD", {"zeta2": 0.02, "omega2": 800.0, "phi2": 3.1}),
+    "enclosure_port": ("UD", {"Lb": 1.3e-3, "omegab": 45.7, "zetab": 0.05}),
+    "suspension_creep": ("UD", {"lambda_creep": 0.1}),
+    "thermal_drift": ("UD", {"drift": 0.03}),
+    "semi_inductance": ("I", {"K_semi": 0.02, "n_semi": 0.6}),
+    "lr2": ("I", {"L_lr2": 1e-3, "R_lr2": 5.0}),
+    "lead_impedance": ("III", {"Rl": 0.1, "Ll": 5e-5}),
+    "measurement_artifact": ("UD", {"omegas": 3000.0, "delta_s": 0.02, "psi_s": 0.01}),
+}
+
+
+def _draws(model, theta, n, rel=2e-3, seed=0):
+    rng = np.random.default_rng(seed)
+    return theta * (1 + rel * rng.standard_normal((n, theta.size)))
+
+
+def _compare(model, thetas, *, max_fallback=0):
+    nom = design_rc_shunt(model, np.median(thetas, axis=0))
+    bp = BatchPlant(model, thetas)
+    opt = design_draws(bp, (nom.Rs, nom.Cs), R0_start=nom.R0)
+    assert int(opt.fallback.sum()) <= max_fallback
+    assert np.isfinite(opt.Rs).all() and np.isfinite(opt.Cs).all() and np.isfinite(opt.attenuation_db).all()
+    for i, th in enumerate(thetas):
+        d = design_rc_shunt(model, th)
+        on_bound = d.optimum.startswith("Cs at its upper bound")
+        assert opt.Rs[i] == pytest.approx(d.Rs, rel=1e-6), i
+        assert opt.attenuation_db[i] == pytest.approx(d.attenuation_db, rel=1e-6), i
+        assert opt.Cs[i] == pytest.approx(d.Cs, rel=2e-5 if on_bound else 1e-6), i
+    return opt
+
+
+@pytest.mark.slow
+def test_loudspeaker_draws_settle_in_the_batch():
+    """Every LS10-44 draw used to fall back (its low equal peak lay outside the batch's window)."""
+    model = build_model("UD")
+    _compare(model, _draws(model, model.vector(LS10_44), 4))
+
+
+def test_more_than_two_peaks_no_index_error():
+    """UD+semi_inductance+suspension_creep+second_resonance on a loudspeaker: the model `diagnose`
+    named for a real woofer; the peak search's exact path overflowed its two slots (IndexError)."""
+    model = build_model("UD+semi_inductance+suspension_creep+second_resonance")
+    theta = model.vector({**LS10_44, "K_semi": 0.02, "n_semi": 0.6, "lambda_creep": 0.1,
+                          "zeta2": 0.02, "omega2": 2500.0, "phi2": 8.0})
+    th = _draws(model, theta, 3)
+    bp = BatchPlant(model, th)
+    nom = design_rc_shunt(model, theta)
+    # known centres for two slots while the exact search finds more peaks: no IndexError
+    pb = rc_peaks_batch(bp, np.full(3, nom.Rs), np.full(3, nom.Cs), gradients=True,
+                        centres=np.tile([bp.omega0[0] * 0.9, 2500.0], (3, 1)))
+    assert pb.value.shape[0] == 3 and np.isfinite(pb.hinf).all()
+    opt = design_draws(bp, (nom.Rs, nom.Cs), R0_start=nom.R0)
+    assert np.isfinite(opt.Rs).all() and np.isfinite(opt.Cs).all() and np.isfinite(opt.attenuation_db).all()
+
+
+#: terms where the batch does not yet equal the one-at-a-time design (measured, 20 draws each)
+KNOWN = {
+    "suspension_creep": "same Rs, but the batch's attenuation is -28.76 dB against -10.03 dB: the batch "
+                        "normalises by the closed-form open-terminal peak, which creep changes",
+    "winding_capacitance": "all 20 draws fall back: with a capacitance across the terminals the ideal loop "
+                           "is unstable for any negative Rs and the optimum sits on the stability boundary",
+    "enclosure_port": "Rs 3.7e-6 relative from the one-at-a-time design on one draw of 20 (-8.4216499 vs "
+                      "-8.4216810 ohm)",
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("term", [pytest.param(t, marks=pytest.mark.xfail(reason=KNOWN[t], strict=True))
+                                  if t in KNOWN else t for t in sorted(CASES)])
+def test_every_catalogue_term_batched_equals_one_at_a_time(term):
+    base, extra = CASES[term]
+    model = build_model(f"{base}+{term}")
+    theta = model.vector({**PAPER_TABLES[base], **extra})
+    _compare(model, _draws(model, theta, 20), max_fallback=1)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured: the batch reports -24.12 dB where the one-at-a-time "
+                   "design gives -11.82 dB on a draw: its peak search goes below the design band there (the "
+                   "band-edge optimum of a loudspeaker), the batch's does not")
+def test_two_mode_loudspeaker_batched_equals_one_at_a_time():
+    model = build_model("UD+second_resonance")
+    theta = model.vector({**LS10_44, "zeta2": 0.02, "omega2": 2500.0, "phi2": 8.0})
+    _compare(model, _draws(model, theta, 20), max_fallback=1)
+
+
+def test_margin_inside_the_posterior_r0_interval_is_flagged():
+    """Issue 31: a posterior whose R0 interval is a few % wide (as a likelihood with model
+    discrepancy gives) makes the nominal shunt's stability margin fall inside it: warning + field.
+    The same shunt on a posterior with a 0.2 % R0 spread is not flagged."""
+    model = build_model("NL")
+    theta = model.vector(PAPER_TABLES["NL"])
+    i = model.params.index("R0")
+    flagged = {}
+    for rel in (2e-3, 0.05):
+        th = _draws(model, theta, 40, rel=1e-3, seed=3)
+        th[:, i] = theta[i] * (1 + rel * np.random.default_rng(4).standard_normal(40))
+        res = design_robust_shunt([DrawGroup(model, th)], nominal=(model, theta, "truth"), seed=0)
+        nom = res.report["nominal"]
+        half = float(np.diff(np.quantile(th[:, i], [0.05, 0.95]))[0]) / 2
+        assert nom["r0_uncertainty"]["posterior_interval"] == pytest.approx(half, rel=1e-12)
+        flagged[rel] = any(w.startswith(f"[{MARGIN_CODE}] nominal") for w in res.warnings)
+        assert flagged[rel] == (nom["stability_margin_ohm"] <= half)
+        codes = [w["code"] for w in res.report["safety"]["nominal"]["warnings"]]
+        assert (MARGIN_CODE in codes) == flagged[rel]
+    assert flagged == {2e-3: False, 0.05: True}
+    assert math.isfinite(nom["stability_margin_ohm"])
+    # the driver's terms: the resonance peak lowered (dB, 90 % interval) and where it went (Hz)
+    red, hz = nom["resonance_peak_reduction_db"], nom["resonance_hz"]
+    assert 0 < red["q05"] <= red["median"] <= red["q95"]
+    f0 = theta[model.params.index("omega0")] / (2 * math.pi)
+    assert f0 / 3 < hz["q05"] <= hz["q95"] < 4 * f0
+
+
+def test_undefined_shunt_problem_is_refused_in_one_line(tmp_path, capsys):
+    """An overdamped plant has no resonant peak: `shunt` refuses in one line naming why."""
+    import json
+
+    from bayes_emt.cli import main
+
+    path = tmp_path / "over.json"
+    path.write_text(json.dumps({"model": "I", "parameters": {**PAPER_TABLES["I"], "zeta": 0.9}}))
+    assert main(["shunt", "--params", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "damping ratio 0.9 >= 1/sqrt(2)" in err[0] and "Traceback" not in err[0]
+    model = build_model("I")
+    over = np.tile(model.vector({**PAPER_TABLES["I"], "zeta": 0.9}), (4, 1))
+    with pytest.raises(ValueError, match="nothing for a shunt to damp"):
+        design_robust_shunt([DrawGroup(model, over)])
