@@ -135,7 +135,8 @@ class ThieleSmall:
         widths = [max(len(str(r[i])) for r in [head, *rows]) for i in range(len(head))]
         line = "  ".join(f"{{:<{w}}}" for w in widths)
         how = self.inputs.get("uncertainty", "posterior")
-        how = "no intervals" if how == "none" else f"intervals from the {how}"
+        how = {"none": "no intervals", "laplace": "intervals from a Gaussian (Laplace) approximation"}.get(
+            how, f"intervals from the {how}")
         text = [f"Thiele-Small parameters ({self.method.replace('_', ' ')}, model {self.model}, {how})",
                 line.format(*head), "  ".join("-" * w for w in widths)]
         text += [line.format(*r) for r in rows]
