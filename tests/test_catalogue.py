@@ -16,6 +16,7 @@ import warnings
 
 import numpy as np
 import pytest
+from catalogue_cases import CASES
 
 from bayes_emt import ConvergenceWarning, build_model, simulate
 from bayes_emt.api import read_posterior
@@ -30,18 +31,6 @@ from bayes_emt.reference import PAPER_TABLES
 from bayes_emt.shunt import ShuntWarning, design_rc_shunt, evaluate_rc_shunt
 from bayes_emt.shunt.stability import count_unstable_poles, instability_threshold
 
-#: base model and the term's true values (SI) for each catalogue term
-CASES = {
-    "winding_capacitance": ("UD", {"Cp": 5e-9}),
-    "second_resonance": ("UD", {"zeta2": 0.02, "omega2": 800.0, "phi2": 3.1}),
-    "enclosure_port": ("UD", {"Lb": 1.3e-3, "omegab": 45.7, "zetab": 0.05}),
-    "suspension_creep": ("UD", {"lambda_creep": 0.1}),
-    "thermal_drift": ("UD", {"drift": 0.03}),
-    "semi_inductance": ("I", {"K_semi": 0.02, "n_semi": 0.6}),
-    "lr2": ("I", {"L_lr2": 1e-3, "R_lr2": 5.0}),
-    "lead_impedance": ("III", {"Rl": 0.1, "Ll": 5e-5}),
-    "measurement_artifact": ("UD", {"omegas": 3000.0, "delta_s": 0.02, "psi_s": 0.01}),
-}
 NOT_IDENTIFIABLE = {"Rl"}
 
 

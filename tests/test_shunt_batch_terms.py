@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 import pytest
+from catalogue_cases import CASES  # the catalogue's terms on the paper's shaker, as test_catalogue uses them
 
 from bayes_emt import build_model
 from bayes_emt.reference import PAPER_TABLES
@@ -34,18 +35,6 @@ from bayes_emt.shunt.safety import MARGIN_CODE
 LS10_44 = {"zeta": 0.10341809777195743, "omega0": 213.7593843475715, "phi": 58.54399567993609,
            "R0": 8.561617766689015, "Lg": 0.0015970058167539365, "alpha": 0.005093133126425686,
            "beta": 0.2901108557472927}
-#: the catalogue's terms at the sizes tests/test_catalogue.py uses, on the paper's shaker
-CASES = {
-    "winding_capacitance": ("UD", {"Cp": 5e-9}),
-    "second_resonance": ("UD", {"zeta2": 0.02, "omega2": 800.0, "phi2": 3.1}),
-    "enclosure_port": ("UD", {"Lb": 1.3e-3, "omegab": 45.7, "zetab": 0.05}),
-    "suspension_creep": ("UD", {"lambda_creep": 0.1}),
-    "thermal_drift": ("UD", {"drift": 0.03}),
-    "semi_inductance": ("I", {"K_semi": 0.02, "n_semi": 0.6}),
-    "lr2": ("I", {"L_lr2": 1e-3, "R_lr2": 5.0}),
-    "lead_impedance": ("III", {"Rl": 0.1, "Ll": 5e-5}),
-    "measurement_artifact": ("UD", {"omegas": 3000.0, "delta_s": 0.02, "psi_s": 0.01}),
-}
 
 
 def _draws(model, theta, n, rel=2e-3, seed=0):
