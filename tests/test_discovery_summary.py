@@ -92,7 +92,8 @@ def test_diagnose_prints_fb_of_the_final_fit_in_at_most_20_lines(tmp_path, capsy
     meas = simulate_vented_box(1, noise=0.003, seed=1).thin(100)
     data = write_measurement(meas, tmp_path / "vented.csv")
     out = tmp_path / "d.json"
-    main(["diagnose", str(data), "--setup", "vented", "--workers", "1", "--time-budget", "0", "--json", str(out)])
+    main(["diagnose", str(data), "--setup", "vented", "--workers", "1", "--time-budget", "0",
+          "--json", str(out)])
     text = capsys.readouterr().out.splitlines()
     rec = json.loads(out.read_text())
     body = [x for x in text if not x.startswith("wrote ")]
