@@ -18,7 +18,7 @@ from ..errors import DataFormatError
 from ..measurement import Measurement
 from ._rows import check_rows, check_scale, finish
 from .minphase import minimum_phase_deg
-from .resolution import drop_note, resolution_band
+from .resolution import drop_note, low_band_rows, resolution_band
 from .table import _check_passive
 
 __all__ = ["bench_measurement", "BENCH_UNITS"]
@@ -44,7 +44,8 @@ def bench_measurement(path: Path, arr: np.ndarray, linenos: list[int], *, fmt: s
     if k:
         note = drop_note(path, s[:, 0], k, s.shape[0])
         notices.append(note)
-        meta = {**meta, "dropped_band_hz": [float(s[0, 0]), float(s[k - 1, 0])]}
+        meta = {**meta, "dropped_band_hz": [float(s[0, 0]), float(s[k - 1, 0])],
+                "low_band": low_band_rows(s[:k, 0], s[:k, 1], None if magnitude_only else s[:k, 2])}
         keep = np.sort(order[k:])
         arr, linenos = arr[keep], [linenos[i] for i in keep]
         warnings.warn(note, UserWarning, stacklevel=4)

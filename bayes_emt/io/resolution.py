@@ -16,13 +16,20 @@ below it (a 1/24-octave grid over 0.3 Hz bins: up to about 10 Hz). Every row in 
 dropped (the rows between runs there are interpolated from the same coarse bins), and one note
 names the band [Hz]. An isolated coincidence higher up (two equal neighbouring rows in a 3-digit
 export) does not qualify.
+
+The dropped rows are not thrown away: each run of copies is one reading of a coarse FFT bin, so
+:func:`low_band_rows` keeps one row per run (at the run's geometric-mean frequency, the bin's
+frequency to within half the analyser's resolution) in ``meta["low_band"]``. They are not fitted (their
+frequency labels are only good to that half bin), but where the driver's motion is negligible they
+read the voice coil's resistance: the low-frequency plateau a bench reads its own Re from
+(:mod:`bayes_emt.thiele_small.plateau`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MIN_REPEATED", "resolution_band"]
+__all__ = ["MIN_REPEATED", "resolution_band", "low_band_rows"]
 
 MIN_REPEATED = 4  # rows in runs needed before a low band counts as below the resolution
 
@@ -72,3 +79,19 @@ def drop_note(path, f_hz: np.ndarray, k: int, n: int) -> str:
             "repeat the same values there (the grid is finer than the analyser's resolution), so they "
             "are copies, not measurements; fitted from "
             f"{f_hz[k]:.4g} Hz up")
+
+
+def low_band_rows(f_hz: np.ndarray, mag: np.ndarray, phase_deg: np.ndarray | None) -> dict:
+    """One row per run of identical rows in a dropped low band: ``{"f_hz", "abs_ohm", "phase_deg"}``
+    (lists; ``phase_deg`` None for a magnitude-only file), the frequency of a run the geometric mean
+    of its rows' frequencies. JSON-serialisable (it travels in ``Measurement.meta``)."""
+    f_hz, mag = np.asarray(f_hz, float), np.asarray(mag, float)
+    ph = None if phase_deg is None else np.asarray(phase_deg, float)
+    new = np.ones(f_hz.size, bool)
+    new[1:] = (mag[1:] != mag[:-1]) | (False if ph is None else (ph[1:] != ph[:-1]))
+    run = np.cumsum(new) - 1
+    n = int(run[-1]) + 1 if run.size else 0
+    f_run = np.exp(np.bincount(run, np.log(f_hz), n) / np.bincount(run, None, n)) if n else np.empty(0)
+    first = np.flatnonzero(new)
+    return {"f_hz": [float(x) for x in f_run], "abs_ohm": [float(x) for x in mag[first]],
+            "phase_deg": None if ph is None else [float(x) for x in ph[first]]}

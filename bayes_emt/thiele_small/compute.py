@@ -74,7 +74,9 @@ from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from .curve import fit_curve
+from .definitional import DEFINITIONAL_METHOD, add_definitional, small_on_curve
 from .mixture import MIXTURE_METHOD, mixture_weights, weighted_quantiles
+from .plateau import plateau_note
 from .plausibility import check_inputs, check_result, setup_warnings
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
@@ -495,7 +497,8 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
                  air_density: float = 1.18, sound_speed: float = 343.0, fast: bool = False, seed: int = 0,
                  models_for_spread: Sequence | None = None, f_range_hz: tuple | None = None,
                  exclude_band: Sequence | None = None,
-                 read_options: dict | None = None, settings=None, noise: str = "white") -> ThieleSmall:
+                 read_options: dict | None = None, settings=None, noise: str = "white",
+                 intervals: str = "total", plateau: bool = True) -> ThieleSmall:
     """Thiele–Small parameters with 90 % intervals and model spread (module docstring).
 
     Parameters
@@ -526,6 +529,15 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
         evidence-weighted model mixture carries the model-form uncertainty) or ``"correlated"``
         (instrument noise plus a model discrepancy correlated over log-frequency,
         :mod:`bayes_emt.inference.discrepancy`; slower, and on the truth corpus no better covered).
+    intervals : ``"total"`` (default): ``ci90`` includes the definitional uncertainty, the spread
+        between the model and Small's model-free method (and, for Re, the plateau reading and the
+        fit's R0) (:mod:`.definitional`); ``"misfit"``: only the part of that spread the model's own
+        curve does not explain; ``"model"``: the model mixture's posterior alone, the intervals if
+        the model were exact (``ci90_model`` of the others).
+    plateau : read Re off the recording's low-frequency plateau when the reader kept one (a bench
+        that sweeps from ~1 Hz; :mod:`.plateau`) and no ``re`` is given: Small's model-free column
+        uses it, and it is the second method for Re's definitional uncertainty (the fit's R0 stays
+        the model's, fitted).
 
     Returns
     -------
@@ -555,6 +567,8 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
                     ("sound_speed", sound_speed)):
         if v is not None and not (math.isfinite(v) and v > 0):
             raise ValueError(f"{name} must be a positive number, got {v!r}")
+    if intervals not in ("total", "misfit", "model"):
+        raise ValueError(f"intervals must be 'total', 'misfit' or 'model', got {intervals!r}")
     re_t = as_meter(re)
     main = _model(model)
     check_inputs(sd=sd, mms=mms, bl=bl, box_volume=None if box is None else _volume_of(box),
@@ -580,6 +594,9 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
             raise ValueError(f"box volume must be a positive number of m^3, got {vb!r}")
         bx = (_measurement(rec, "box", read_options, f_range_hz, exclude_band), float(vb))
     method = "added_mass" if lm else "added_volume" if bx else "free_air"
+    plat = None
+    if plateau and re_t is None and meas.meta.get("low_band"):
+        plat = _plateau(meas, main)
     if noise not in ("correlated", "white"):
         raise ValueError(f"noise must be 'correlated' or 'white', got {noise!r}")
     inp = _Inputs(meas, lm, bx, sd, re_t, mms, bl, float(air_density), float(sound_speed), int(seed),
@@ -646,7 +663,7 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
                       f"{main.label}'s own values are under model_only; "
                       "--model " + b["model"] + " samples that model"})
 
-    params = {}
+    params, pooled = {}, {}
     for name in NAMES:
         if name not in draws:
             continue
@@ -663,7 +680,8 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
             if x.size and np.any(np.isfinite(x)):
                 mv.append(x)
                 mw.append(np.full(x.size, w / x.size))
-        mlo, mmed, mhi = (weighted_quantiles(np.concatenate(mv), np.concatenate(mw), [0.05, 0.5, 0.95])
+        pooled[name] = (np.concatenate(mv), np.concatenate(mw)) if len(mv) > 1 else (v, None)
+        mlo, mmed, mhi = (weighted_quantiles(*pooled[name], [0.05, 0.5, 0.95])
                           if len(mv) > 1 else (lo, med, hi))
         params[name] = {"value": float(mmed), "ci90": [float(mlo), float(mhi)], "unit": UNITS[name],
                         # never empty because a filter left one model: then that model's value alone,
@@ -700,6 +718,7 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
               "box": None if bx is None else {"data": bx[0].source, "volume_m3": bx[1]},
               "sd_m2": sd,
               "re": None if re_t is None else {"ohm": re_t.value, "sd_ohm": re_t.sd, "mode": re_t.mode},
+              "plateau": None if plat is None else plat.to_json_dict(),
               "mms_kg": mms, "bl_tm": bl, "air_density_kg_m3": inp.rho, "sound_speed_m_s": inp.c,
               "uncertainty": "laplace" if fast else "posterior", "seed": int(seed),
               "noise": noise, "noise_model": NOISE_DESCRIPTION[noise],
@@ -720,14 +739,48 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
     # the reference columns: Small's model-free values off the curve, the bench's own fit (references.py)
     from .references import bench_comparison, bench_model_free_notes, disagreements, model_free_record
 
-    mf = model_free_record(meas, params, main.label, re_meter=re_t, loaded=lm, seed=int(seed),
+    mf = model_free_record(meas, params, main.label, re_meter=re_t if plat is None else plat.meter,
+                           loaded=lm, seed=int(seed),
                            use_phase=meas.meta.get("phase") != "absent")
     warns += disagreements(params, mf)
     warns += bench_model_free_notes(meas, mf, meas.meta.get("bench_fit"), seed=int(seed),
                                     use_phase=meas.meta.get("phase") != "absent")
+    if plat is not None:
+        warns.append(plateau_note(plat))
+    inputs["intervals"] = intervals
+    if intervals in ("total", "misfit"):
+        small = small_on_curve(inp.curve, _mf_re(mf), use_phase=meas.meta.get("phase") != "absent",
+                               seed=int(seed))
+        warns += add_definitional(params, pooled, small, plat, int(seed), corrected=intervals == "misfit")
+        inputs["intervals_method"] = DEFINITIONAL_METHOD
     return ThieleSmall(model=main.spec, method=method, parameters=params, inputs=inputs,
                        warnings=tuple(_dedupe(warns)), model_free=mf, curve=inp.curve,
                        bench_fit=bench_comparison(params, meas.meta.get("bench_fit")))
+
+
+def _plateau(meas: Measurement, main: Model | None):
+    """The low-frequency plateau's Re reading (:mod:`.plateau`) from a least-squares fit of ``main``
+    (UD when the model is chosen by evidence), or None (no rows below fs/8, or the fit failed)."""
+    from ..estimation.fitting import fit_admittance
+    from .plateau import plateau_reading
+
+    model = main if main is not None else parse_model_spec("UD")
+    try:
+        fit = fit_admittance(meas, model)
+        fs = float(np.asarray(free_air(fit.model, fit.theta[None, :])["fs"]).ravel()[0])
+    except Exception:  # noqa: BLE001 - no reading then; the main fit reports its own failure
+        return None
+    return plateau_reading(meas, fit.model, fit.theta, fs)
+
+
+def _mf_re(mf: dict) -> tuple[float, float]:
+    """The Re ``(value, sd)`` [Ω] the model-free column used (from its record)."""
+    q = (mf or {}).get("parameters", {}).get("Re")
+    if not q:
+        return (float("nan"), 0.0)
+    from .definitional import half_width_sd
+
+    return float(q["value"]), half_width_sd(q.get("ci90"))
 
 
 def _point_values(ts: dict) -> dict:

@@ -13,8 +13,9 @@ downloads it at the pinned commit into ``~/.cache/bayes_emt_truth`` and checks i
    analyser's resolution, dropped); Novak's U/I/velocity recording becomes ``Z = U/I`` on 400
    log-spaced FFT bins over 10 Hz-19.5 kHz (``novak.py``);
 2. ``bayes_emt.thiele_small.thiele_small(meas, seed=SEED)`` with its default settings (column
-   ``default``), and the same with ``noise="white"`` when the installed package accepts that
-   option (column ``white``: the intervals "if the model were exact"; detected by trying);
+   ``default``: its ``ci90``, the model mixture with the definitional spread between methods);
+   column ``model``: the same result's ``ci90_model``, the model's own interval "if the model were
+   exact" (``ci90`` for a package without it); with ``--white`` also a run with ``noise="white"``;
 3. Small's model-free values off the curve (column ``model_free``, from the same result's
    ``model_free`` record when the package computes one).
 
@@ -101,8 +102,10 @@ def read_entry(entry: dict, path: Path) -> tuple[Measurement, str]:
     return read_dats_minimal(path), "run.py's minimal DATS parser"
 
 
-def _ts(meas, seed: int, noise: str | None):
+def _ts(meas, seed: int, noise: str | None, intervals: str | None = None):
     kw = {} if noise is None else {"noise": noise}
+    if intervals is not None:
+        kw["intervals"] = intervals
     t0 = time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -197,7 +200,9 @@ def main(argv=None) -> int:
                     help="a directory holding unchanged copies of corpus recordings (checked by SHA-256)")
     ap.add_argument("--only", action="append", default=[], metavar="ID", help="run only these corpus ids")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--no-white", action="store_true", help="skip the noise='white' column")
+    ap.add_argument("--intervals", default=None, help="ts's intervals= option (default: the package's)")
+    ap.add_argument("--white", action="store_true",
+                    help="also run ts with noise='white' (column 'white'; the default noise is white today)")
     ap.add_argument("--out", type=Path, default=REPO / "scripts" / "results" / "truth")
     ap.add_argument("--code", default=None,
                     help="what the imported package is, when it is not a git checkout (e.g. 'branch@commit', "
@@ -211,13 +216,13 @@ def main(argv=None) -> int:
     cache = a.cache or default_cache()
     entries = [e for e in load_corpus() if not a.only or e["id"] in a.only]
     rows, drivers, notes = [], [], []
-    white_ok = not a.no_white
+    white_ok = a.white
     for e in entries:
         path = fetch(e, cache, a.shared)
         if path is None:
             continue
         meas, reader = read_entry(e, path)
-        res, cpu = _ts(meas, a.seed, None)
+        res, cpu = _ts(meas, a.seed, None, a.intervals)
         info = {"id": e["id"], "unit": e["unit"], "reader": reader, "n_points": meas.n_points,
                 "f_range_hz": [float(meas.f_hz[0]), float(meas.f_hz[-1])], "model": res.model,
                 "cpu_s": {"default": cpu}, "warnings": [w.get("code") for w in res.warnings],
@@ -237,6 +242,11 @@ def main(argv=None) -> int:
         for name in e["compare"]:
             ref = float(e["reference"][name])
             cols = {"default": score(_entry(res.parameters.get(name)), ref)}
+            p = res.parameters.get(name)
+            if p and "ci90_model" in p:  # the model's own interval, before the definitional spread
+                cols["model"] = score(_entry({**p, "ci90": p["ci90_model"]}), ref)
+            elif p:
+                cols["model"] = cols["default"]
             if white is not None:
                 cols["white"] = score(_entry(white.parameters.get(name)), ref)
             if "parameters" in mf and name != "Re":  # its Re is the model's (an input, not a reading)

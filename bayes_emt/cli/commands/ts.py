@@ -76,6 +76,15 @@ def register(sub) -> None:
                         "model mixture carries model form); correlated: instrument noise plus a model "
                         "discrepancy correlated over log-frequency (slower; on the truth corpus it did not "
                         "improve coverage, see the docs' intervals page)")
+    p.add_argument("--intervals", choices=["total", "misfit", "model"], default="total",
+                   help="total (default): the model's posterior plus the definitional spread between "
+                        "methods (the model vs Small's model-free method; Re: the plateau reading vs the "
+                        "fit), what another bench may report; misfit: only the part of that spread the "
+                        "model's own curve does not explain; model: the model's posterior alone, the "
+                        "intervals if the model were exact")
+    p.add_argument("--no-plateau", action="store_true",
+                   help="do not read Re off the recording's low-frequency rows below the analyser's "
+                        "resolution (a bench that sweeps from about 1 Hz keeps them)")
     p.add_argument("--seed", type=seed, default=0, help="sampler seed (default 0)")
     add_data_args(p)
     add_exclude_band_arg(p)
@@ -111,7 +120,8 @@ def run(args) -> int:
                      box=None if args.box is None else (args.box, args.box_volume), sd=args.sd, re=meter,
                      mms=args.mms, bl=args.bl, air_density=args.air_density, sound_speed=args.sound_speed,
                      fast=args.fast, seed=args.seed, models_for_spread=spread, f_range_hz=f_range,
-                     exclude_band=args.exclude_band, noise=args.noise,
+                     exclude_band=args.exclude_band, noise=args.noise, intervals=args.intervals,
+                     plateau=not args.no_plateau,
                      read_options={"freq_unit": args.freq_unit, "phase_unit": args.phase_unit,
                                    "quantity": args.quantity, "magnitude_only": args.magnitude_only})
     table = r.summary().splitlines()
