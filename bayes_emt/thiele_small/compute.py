@@ -74,7 +74,7 @@ from ..estimation.meter import as_meter
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from .curve import fit_curve
-from .definitional import DEFINITIONAL_METHOD, add_definitional, small_on_curve
+from .definitional import DEFINITIONAL_METHOD, add_definitional, half_width_sd, small_on_curve
 from .mixture import MIXTURE_METHOD, mixture_weights, weighted_quantiles
 from .plateau import plateau_note
 from .plausibility import check_inputs, check_result, setup_warnings
@@ -751,7 +751,11 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
     if intervals in ("total", "misfit"):
         small = small_on_curve(inp.curve, _mf_re(mf), use_phase=meas.meta.get("phase") != "absent",
                                seed=int(seed))
-        warns += add_definitional(params, pooled, small, plat, int(seed), corrected=intervals == "misfit")
+        mfp = (mf or {}).get("parameters") or {}
+        shift = {n: (float(mfp[n]["value"]), half_width_sd(mfp[n].get("ci90")))
+                 for n in ("Mms", "Cms", "Bl") if n in mfp and mfp[n].get("value") is not None}
+        warns += add_definitional(params, pooled, small, plat, int(seed), corrected=intervals == "misfit",
+                                  mass_shift=shift)
         inputs["intervals_method"] = DEFINITIONAL_METHOD
     return ThieleSmall(model=main.spec, method=method, parameters=params, inputs=inputs,
                        warnings=tuple(_dedupe(warns)), model_free=mf, curve=inp.curve,
@@ -778,8 +782,6 @@ def _mf_re(mf: dict) -> tuple[float, float]:
     q = (mf or {}).get("parameters", {}).get("Re")
     if not q:
         return (float("nan"), 0.0)
-    from .definitional import half_width_sd
-
     return float(q["value"]), half_width_sd(q.get("ci90"))
 
 

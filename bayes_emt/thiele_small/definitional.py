@@ -21,8 +21,9 @@ Thompson & Ellison 2011, Accred. Qual. Assur. 16:483):
 is the model mixture's draws each multiplied by ``exp(τ/a·ε)``, ``ε ~ N(0, 1)`` (seeded): the
 model's posterior convolved with the definitional spread, centred where the model is. No constant
 is tuned: τ is zero when the methods agree within their own uncertainties, and the interval is then
-the model's. EBP = fs/Qes takes the two relative τ in quadrature; the other quantities (Le, Vas,
-Mms, Bl, ...) keep the model's interval.
+the model's. EBP = fs/Qes takes the two relative τ in quadrature. With added masses the model-free
+column's mass-shift Mms, Cms and Bl are the second method for those three (``total`` only); the
+other quantities (Le, Vas, η0, ...) keep the model's interval.
 
 Two parts make up ``a − b``: Small's method's own bias on a curve the model describes exactly
 (``b_model − a``, ``b_model`` Small's value on the model's fitted curve: the conventions differ,
@@ -105,13 +106,15 @@ def small_on_curve(curve: dict | None, re, *, use_phase: bool, seed: int) -> tup
 
 
 def add_definitional(params: dict, pooled: dict, small: tuple[dict, dict] | None, plateau,
-                     seed: int, corrected: bool = False) -> list[dict]:
+                     seed: int, corrected: bool = False, mass_shift: dict | None = None) -> list[dict]:
     """Widen ``params[name]["ci90"]`` in place by the definitional uncertainty (module docstring):
     ``pooled[name] = (draws, weights | None)`` are the mixture's draws the interval came from,
     ``small`` Small's values on the data and on the model's curve (:func:`small_on_curve`),
-    ``plateau`` the Re reading (or None). Each widened entry gets ``ci90_model`` (the interval
-    before) and ``definitional_sd`` (τ, SI). Returns the ``definitional_uncertainty`` note (an
-    empty list when nothing was widened)."""
+    ``plateau`` the Re reading (or None), ``mass_shift`` the model-free column's added-mass values
+    ``{"Mms"|"Cms"|"Bl": (value, u)}`` (second method for those; not with ``corrected``, which
+    has no model curve of the loaded recordings to correct them by). Each widened entry gets
+    ``ci90_model`` (the interval before) and ``definitional_sd`` (τ, SI). Returns the
+    ``definitional_uncertainty`` note (an empty list when nothing was widened)."""
     from .mixture import weighted_quantiles
 
     rng = np.random.default_rng([int(seed), 2027])
@@ -127,6 +130,10 @@ def add_definitional(params: dict, pooled: dict, small: tuple[dict, dict] | None
                 # Small's value corrected by its own bias on the model's curve: the second method
                 taus[name] = between_method_sd(p["value"], p["value"] + (c - m), half_width_sd(p.get("ci90")),
                                                u_c)
+    for name, (c, u_c) in ({} if corrected else (mass_shift or {})).items():
+        p = params.get(name)
+        if p:
+            taus[name] = between_method_sd(p["value"], c, half_width_sd(p.get("ci90")), u_c)
     if plateau is not None and "Re" in params:
         p = params["Re"]
         taus["Re"] = between_method_sd(p["value"], plateau.meter.value, half_width_sd(p.get("ci90")),
