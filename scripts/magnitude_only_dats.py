@@ -4,8 +4,9 @@ For each file and model: ``thiele_small`` (posterior intervals, seed 1) with the
 with the phase dropped (``read_options={"magnitude_only": True}``); prints a Markdown table of fs,
 Re, Qms, Qes: the |Z|-only value, its relative difference from the with-phase value, and whether
 the |Z|-only 90 % interval contains the with-phase value. CPU seconds per run (one thread).
+``auto``: the model the evidence supports (``ts``'s default), chosen separately for each run.
 
-    OMP_NUM_THREADS=1 .venv/bin/python scripts/magnitude_only_dats.py [--models UD,UD+semi_inductance]
+    OMP_NUM_THREADS=1 .venv/bin/python scripts/magnitude_only_dats.py [--models auto,UD,UD+semi_inductance]
         [--band-over-fs 10]
 """
 
@@ -48,8 +49,8 @@ def main() -> None:
                 t = time.process_time()
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    r = thiele_small(REAL / name, model, seed=1, read_options={"magnitude_only": mag},
-                                     f_range_hz=f_range)
+                    r = thiele_small(REAL / name, None if model == "auto" else model, seed=1,
+                                     read_options={"magnitude_only": mag}, f_range_hz=f_range)
                 res[mag] = (r.to_json_dict()["parameters"], time.process_time() - t)
             p, m = res[False][0], res[True][0]
             cells = []

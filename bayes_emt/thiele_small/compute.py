@@ -75,27 +75,28 @@ from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from .curve import fit_curve
 from .definitional import DEFINITIONAL_METHOD, add_definitional, half_width_sd, small_on_curve
+from .from_results import LAPLACE_DRAWS, from_fit, from_posterior, laplace_theta
 from .mixture import MIXTURE_METHOD, mixture_weights, weighted_quantiles
 from .plateau import plateau_note
 from .plausibility import check_inputs, check_result, setup_warnings
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
+from .spread import (
+    ADEQUATE_RMS_FACTOR,
+    DEFAULT_SPREAD_BASES,
+    MODEL_SPREAD_METHOD,
+    SPREAD_MIN_PROBABILITY,
+    rank_key,
+    select_spread_models,
+    spread_models,
+    undetermined,
+)
 
-__all__ = ["thiele_small", "from_fit", "evidence_supported_model", "AUTO_CANDIDATES", "AUTO_TERMS",
-           "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES",
+__all__ = ["thiele_small", "from_fit", "from_posterior", "evidence_supported_model", "AUTO_CANDIDATES",
+           "AUTO_TERMS", "TS_SAMPLER", "ADEQUATE_RMS_FACTOR", "DEFAULT_SPREAD_BASES",
            "SPREAD_MIN_PROBABILITY", "MODEL_SPREAD_METHOD", "undetermined",
            "select_spread_models"]
 
-ADEQUATE_RMS_FACTOR = 1.5
-#: smallest posterior model probability (equal prior odds, Laplace evidence) that enters the spread
-SPREAD_MIN_PROBABILITY = 0.01
-MODEL_SPREAD_METHOD = (
-    f"range of the least-squares values over the candidate models whose rms relative residual is within "
-    f"{ADEQUATE_RMS_FACTOR}x the best, whose parameters are all determined (finite standard error below the "
-    "value, none at a prior edge) and whose posterior model probability (Laplace evidence, equal prior "
-    f"odds) is at least {SPREAD_MIN_PROBABILITY:g}; candidates whose evidence could not be computed are kept "
-    "unweighted")
-DEFAULT_SPREAD_BASES = ("II", "III", "UD")
 #: the candidates of the evidence-supported default model (``model=None``): the coil models, then
 #: the catalogue terms of :data:`AUTO_TERMS` on the most probable of them
 AUTO_CANDIDATES = ("II", "III", "UD", "NL(3)")
@@ -109,7 +110,6 @@ NOISE_DESCRIPTION = {
                   "(Ornstein-Uhlenbeck, size and correlation length inferred): intervals that include the "
                   "model's misfit",
     "white": "independent errors at every frequency: the intervals if the model were exact"}
-_LAPLACE_DRAWS = 4000
 
 
 def _ts_sampler():
@@ -151,14 +151,6 @@ def _model(model) -> Model | None:
     return parse_model_spec(model) if isinstance(model, str) else model
 
 
-def _laplace(params, z_hat, cov, n, rng):
-    """``n`` draws of the physical vector from ``N(z_hat, cov)`` in sampling space (clipped to the
-    support)."""
-    lo, hi = params.bounds_z()
-    z = rng.multivariate_normal(z_hat, cov, size=n, method="eigh")
-    return params.from_z(np.clip(z, lo, hi))
-
-
 @dataclass
 class _Inputs:
     meas: Measurement
@@ -189,46 +181,6 @@ def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
         if inp.sd is not None:
             ts = with_sd(ts, inp.sd, inp.rho, inp.c)
     return ts
-
-
-def undetermined(params, theta, cov_z) -> list[str]:
-    """Parameters of a least-squares estimate the data do not determine: no covariance (all of
-    them), a standard error above the value (log parameters: ``sd(log x) > 1``), or a value within
-    :data:`~bayes_emt.estimation.adequacy.AT_BOUND_FRAC` of its prior support's width of an edge
-    (sampling space). The rules of the fit's ``not_identifiable`` and ``parameter_at_bound``
-    warnings, applied to any ParamSet (a joint added-mass vector too)."""
-    from ..estimation.adequacy import edges_reached, relative_sd
-
-    theta = np.asarray(theta, float).ravel()
-    if cov_z is None or not np.all(np.isfinite(np.diag(cov_z))):
-        return list(params.names)
-    flagged = set(np.flatnonzero(relative_sd(params, theta, cov_z) > 1).tolist())
-    flagged |= {i for i, _ in edges_reached(params, params.to_z(theta), *params.bounds_z())}
-    return [params[i].name for i in sorted(flagged)]
-
-
-def select_spread_models(records: list[dict]) -> list[dict]:
-    """The spread rule (module docstring) on ``records`` ``{"model", "rms", "undetermined",
-    "log_z"}`` (``log_z`` nan when not computed): returns them with ``adequate``, ``determined``,
-    ``probability`` (None without evidence) and ``included`` added; ``included`` marks the models
-    whose values make the spread."""
-    out = [dict(r) for r in records]
-    best = min(r["rms"] for r in out)
-    for r in out:
-        r["adequate"] = bool(r["rms"] <= ADEQUATE_RMS_FACTOR * best)
-        r["determined"] = not r["undetermined"]
-        r["probability"] = None
-    pool = [r for r in out if r["adequate"] and r["determined"]]
-    with_z = [r for r in pool if math.isfinite(r["log_z"])]
-    if with_z:
-        lz = np.array([r["log_z"] for r in with_z])
-        w = np.exp(lz - lz.max())
-        for r, p in zip(with_z, w / w.sum(), strict=True):
-            r["probability"] = float(p)
-    for r in out:
-        probable = r["probability"] is None or r["probability"] >= SPREAD_MIN_PROBABILITY
-        r["included"] = bool(any(r is q for q in pool) and probable)
-    return out
 
 
 def _single_evidence(meas, fit, prior_model, noise: str = "white") -> float:
@@ -303,7 +255,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
             from .mixture import laplace_draws
 
             lik = Likelihood(prior_model, meas, noise=inp.noise)
-            theta, why = laplace_draws(lik, fit, _LAPLACE_DRAWS, rng)
+            theta, why = laplace_draws(lik, fit, LAPLACE_DRAWS, rng)
             if theta is None:
                 warns.append({"code": "mixture_component_failed", "model": model.label, "run": label,
                               "short": "no Gaussian approximation for the model mixture",
@@ -320,7 +272,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                 from .mixture import laplace_draws
 
                 theta, why = laplace_draws(Likelihood(prior_model, meas, noise="correlated"), fit,
-                                           _LAPLACE_DRAWS, rng)
+                                           LAPLACE_DRAWS, rng)
                 if theta is None:
                     warns.append({"code": "fast_white", "model": model.label, "run": label,
                                   "short": "fast intervals from the white fit's covariance",
@@ -328,7 +280,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                                              f"{model.label} ({why}): the fast intervals are the "
                                              "least-squares fit's, as if the model were exact"})
             if theta is None:
-                theta = _laplace(params, params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS, rng)
+                theta = laplace_theta(params, params.to_z(fit.theta), fit.cov_z, LAPLACE_DRAWS, rng)
         else:
             cut = meter is not None and meter.cut
             post = sample_posterior(meas, prior_model, fit=held_fit(fit, meter) if cut else fit,
@@ -375,7 +327,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
         elif mode == "laplace":
             if mfit.cov_z is None:
                 raise DataFormatError(f"the joint fit of {model.label} has no covariance: drop fast")
-            x = _laplace(jm.params, jm.params.to_z(mfit.theta), mfit.cov_z, _LAPLACE_DRAWS, rng)
+            x = laplace_theta(jm.params, jm.params.to_z(mfit.theta), mfit.cov_z, LAPLACE_DRAWS, rng)
         else:
             pm = MultiMassModel(prior_model, jm.deltas).model
             x, info = sample_multi_mass(runs, deltas, pm, fit=mfit, seed=inp.seed, settings=inp.settings,
@@ -429,16 +381,10 @@ def _volume(bound, bbound, theta, theta_c, vb, inp, warns, model):
     return ts
 
 
-def _rank_key(rec: dict) -> tuple:
-    """Order of candidates for the default model: determined first, then by log evidence."""
-    lz = rec["log_z"]
-    return (not rec["undetermined"], math.isfinite(lz), lz if math.isfinite(lz) else -math.inf)
-
-
 def _fit_candidates(models, method, inp, cand_mode, warns, comps) -> list[str]:
     """Fit (and, for the mixture, approximate) each of ``models`` into ``comps[label] = (draws,
     point values, record)``; a candidate that fails is reported in ``warns``. Returns the labels of
-    ``comps`` ranked by :func:`_rank_key`, best first."""
+    ``comps`` ranked by :func:`~.spread.rank_key`, best first."""
     for cand in models:
         if cand.label in comps:
             continue
@@ -452,7 +398,7 @@ def _fit_candidates(models, method, inp, cand_mode, warns, comps) -> list[str]:
                                      f"fitted: {exc}"})
             continue
         warns.extend(w for w in cw if w["code"] == "mixture_component_failed")
-    return sorted(comps, key=lambda m: _rank_key(comps[m][2]), reverse=True)
+    return sorted(comps, key=lambda m: rank_key(comps[m][2]), reverse=True)
 
 
 def evidence_supported_model(meas: Measurement, *, noise: str = "white",
@@ -473,23 +419,9 @@ def evidence_supported_model(meas: Measurement, *, noise: str = "white",
     if "+" not in ranked[0]:
         _fit_candidates([parse_model_spec(f"{ranked[0]}+{t}") for t in AUTO_TERMS], "free_air", inp, "point",
                         warns, comps)
-    best = max(comps, key=lambda m: _rank_key(comps[m][2]))
+    best = max(comps, key=lambda m: rank_key(comps[m][2]))
     probs = mixture_weights({m: c[2]["log_z"] for m, c in comps.items() if not c[2]["undetermined"]})
     return parse_model_spec(best), probs
-
-
-def _spread_models(main: Model, models_for_spread) -> list[Model]:
-    if models_for_spread is not None:
-        cands = [_model(m) for m in models_for_spread]
-    else:
-        suffix = "".join(f"+{t.id}" for t in main.augmentations)
-        cands = [parse_model_spec(b + suffix) for b in DEFAULT_SPREAD_BASES]
-    out, seen = [], {main.spec}
-    for m in cands:
-        if m.spec not in seen:
-            seen.add(m.spec)
-            out.append(m)
-    return out
 
 
 def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple | None = None,
@@ -617,10 +549,10 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
         best = ranked[0]
         terms = [parse_model_spec(f"{best}+{t}") for t in AUTO_TERMS if "+" not in best]
         _fit_candidates(terms, method, inp, cand_mode, warns, comps)
-        main = parse_model_spec(max(comps, key=lambda m: _rank_key(comps[m][2])))
+        main = parse_model_spec(max(comps, key=lambda m: rank_key(comps[m][2])))
         candidates = [parse_model_spec(m) for m in comps if m != main.label]
     else:
-        candidates = _spread_models(main, models_for_spread)
+        candidates = spread_models(main, models_for_spread, _model)
         inp.evidence = bool(candidates)
     inp.evidence = inp.evidence and not auto  # auto: the main model's evidence is already known
     draws, point_main, rec_main = _estimate(main, method, inp, mode, warns)
@@ -809,69 +741,3 @@ def _dedupe(warns: list[dict]) -> list[dict]:
         rec["models"] = [w["model"]] if w.get("model") else []
         out[key] = rec
     return list(out.values())
-
-
-def from_fit(fit, *, seed: int = 0) -> ThieleSmall:
-    """The free-air T/S set of a least-squares fit (one recording), intervals from the fit's
-    Gaussian approximation as ``thiele_small(..., fast=True)`` gives them (4000 draws of its
-    sampling-space covariance, seeded; ``value`` their median). A fit without covariance gives its
-    point values with ``ci90`` None and says so. No model spread (one model)."""
-    model = fit.model
-    point = free_air(model, fit.theta[None, :])
-    draws, warns = None, []
-    if fit.cov_z is not None and np.all(np.isfinite(fit.cov_z)):
-        theta = _laplace(model.params, model.params.to_z(fit.theta), fit.cov_z, _LAPLACE_DRAWS,
-                         np.random.default_rng(seed))
-        draws = free_air(model, theta)
-    else:
-        warns.append({"code": "no_covariance", "message": "the fit has no covariance (singular Jacobian): "
-                      "point values only, no intervals"})
-    params = {}
-    for name in NAMES:
-        if name not in point:
-            continue
-        v0 = float(np.asarray(point[name], float).ravel()[0])
-        if not math.isfinite(v0):
-            continue
-        entry = {"value": v0, "ci90": None, "unit": UNITS[name], "model_spread": None}
-        if draws is not None:
-            v = np.asarray(draws[name], float)
-            v = v[np.isfinite(v)]
-            if v.size:
-                lo, med, hi = np.quantile(v, [0.05, 0.5, 0.95])
-                entry.update(value=float(med), ci90=[float(lo), float(hi)])
-        params[name] = entry
-    return ThieleSmall(model=model.spec, method="free_air", parameters=params,
-                       inputs={"uncertainty": "laplace" if draws is not None else "none", "seed": int(seed)},
-                       warnings=tuple(warns))
-
-
-def from_posterior(post, *, sd: float | None = None, air_density: float = 1.18,
-                   sound_speed: float = 343.0) -> ThieleSmall:
-    """The T/S set of an existing posterior (``sample``'s): a single recording gives the free-air set;
-    an added-mass pair (:class:`~bayes_emt.added_mass.posterior.AddedMassPosterior`) also Bl, Mms,
-    Cms, Kms, Rms and, with ``sd``, Vas, η0 and SPL. No model spread (one model)."""
-    model = post.model
-    theta = post.theta()
-    if hasattr(post, "thetas"):  # added-mass pair: m is the first joint parameter
-        mms = post.flat()[:, 0]
-        ts = with_mass(free_air(model, theta), model, theta, mms)
-        method = "added_mass"
-    else:
-        ts, method = free_air(model, theta), "free_air"
-    if sd is not None and "Cms" in ts:
-        ts = with_sd(ts, sd, air_density, sound_speed)
-    params = {}
-    for name in NAMES:
-        if name in ts:
-            v = np.asarray(ts[name], float)
-            v = v[np.isfinite(v)]
-            if v.size:
-                lo, med, hi = np.quantile(v, [0.05, 0.5, 0.95])
-                params[name] = {"value": float(med), "ci90": [float(lo), float(hi)], "unit": UNITS[name],
-                                "model_spread": None}
-    warns = [] if post.converged else [{"code": "not_converged", "message": "the posterior did not meet the "
-                                        "stopping rule: its T/S intervals are not to be trusted"}]
-    return ThieleSmall(model=model.spec, method=method, parameters=params,
-                       inputs={"uncertainty": "posterior", "sd_m2": sd, "air_density_kg_m3": air_density,
-                               "sound_speed_m_s": sound_speed}, warnings=tuple(warns))
