@@ -139,6 +139,13 @@ def test_fetch_reads_a_local_clone_and_checks_the_hash(tmp_path, capsys):
     assert err.count("\n") == 1 and "skip t2:" in err and "the corpus says 000" in err
     with pytest.raises(SystemExit, match="OWNER/NAME=PATH"):
         fetch.parse_git_options(["no-equals-sign"])
+    # an entry's added-mass recordings: all of them with their masses, or None if one is missing
+    entry = {"id": "e", "source": src, "loaded": [{**src, "delta_m_kg": 0.008}]}
+    assert fetch.fetch_loaded(entry, tmp_path / "cache", gitdirs=gitdirs) == [(got, 0.008)]
+    entry["loaded"].append({**bad, "delta_m_kg": 0.016})
+    assert fetch.fetch_loaded(entry, tmp_path / "cache3", gitdirs=gitdirs) is None
+    assert "skip e loaded[1]:" in capsys.readouterr().err
+    assert fetch.fetch_loaded({"id": "f", "source": src}, tmp_path / "cache", gitdirs=gitdirs) == []
 
 
 def test_corpus_shared_copies_match_their_hash():
