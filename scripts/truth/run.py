@@ -1,7 +1,7 @@
 """The truth corpus, one command: do ``ts``'s 90 % intervals hold independent references?
 
     OMP_NUM_THREADS=1 python scripts/truth/run.py [--label NAME] [--cache DIR] [--shared DIR]
-        [--only ID]... [--seed 0] [--out scripts/results/truth]
+        [--git OWNER/NAME=GITDIR]... [--only ID]... [--seed 0] [--out scripts/results/truth]
 
 For every driver of ``scripts/truth/corpus.toml`` whose recording is available (``fetch.py``
 downloads it at the pinned commit into ``~/.cache/bayes_emt_truth`` and checks its SHA-256;
@@ -11,7 +11,10 @@ downloads it at the pinned commit into ``~/.cache/bayes_emt_truth`` and checks i
    where that reader refuses a DATS export, with this script's own minimal DATS parser (the ``*``
    header's fit as ``meta["bench_fit"]``; the leading rows that repeat one value, below the
    analyser's resolution, dropped); Novak's U/I/velocity recording becomes ``Z = U/I`` on 400
-   log-spaced FFT bins over 10 Hz-19.5 kHz (``novak.py``);
+   log-spaced FFT bins over 10 Hz-19.5 kHz (``novak.py``); an entry's added-mass recordings
+   (``[[driver.loaded]]``) are read the same way and given to ``thiele_small`` as ``loaded`` (method
+   ``added_mass``); a reference that differs from the bench fit in the file's own header is a
+   skip line, not a score;
 2. ``bayes_emt.thiele_small.thiele_small(meas, seed=SEED)`` with its default settings (column
    ``default``: its ``ci90``, the model mixture with the definitional spread between methods);
    column ``model``: the same result's ``ci90_model``, the model's own interval "if the model were
@@ -45,7 +48,7 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from fetch import default_cache, fetch, load_corpus  # noqa: E402
+from fetch import default_cache, fetch, fetch_loaded, load_corpus, parse_git_options  # noqa: E402
 
 import bayes_emt  # noqa: E402
 from bayes_emt.measurement import Measurement  # noqa: E402
@@ -91,6 +94,12 @@ def read_entry(entry: dict, path: Path) -> tuple[Measurement, str]:
         from novak import measurement
 
         return measurement(path), "novak.py (Z = U/I)"
+    if entry["format"] == "zma":  # a plain impedance file: the package's reader or nothing
+        from bayes_emt.io import read_measurement
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return read_measurement(path), "bayes_emt.io.read_measurement"
     try:
         from bayes_emt.io import read_measurement
 
@@ -102,8 +111,22 @@ def read_entry(entry: dict, path: Path) -> tuple[Measurement, str]:
     return read_dats_minimal(path), "run.py's minimal DATS parser"
 
 
-def _ts(meas, seed: int, noise: str | None, intervals: str | None = None):
+def bench_fit_mismatch(entry: dict, meas: Measurement, rel: float = 1e-3) -> list[str]:
+    """The reference values that differ from the bench fit the file itself carries (DATS header):
+    a typing slip in the corpus would otherwise score against a wrong number."""
+    values = meas.meta.get("bench_fit", {}).get("values", {})
+    out = []
+    for name, ref in entry["reference"].items():
+        v = values.get(name)
+        if v is not None and abs(v - ref) > rel * abs(ref):
+            out.append(f"{name}: corpus {ref:g}, file header {v:g}")
+    return out
+
+
+def _ts(meas, seed: int, noise: str | None, loaded=(), intervals: str | None = None):
     kw = {} if noise is None else {"noise": noise}
+    if loaded:
+        kw["loaded"] = list(loaded)
     if intervals is not None:
         kw["intervals"] = intervals
     t0 = time.process_time()
@@ -200,6 +223,8 @@ def main(argv=None) -> int:
                     help="a directory holding unchanged copies of corpus recordings (checked by SHA-256)")
     ap.add_argument("--only", action="append", default=[], metavar="ID", help="run only these corpus ids")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--git", action="append", default=[], metavar="OWNER/NAME=GITDIR",
+                    help="read that repository's recordings from a local clone (fetch.py --git)")
     ap.add_argument("--intervals", default=None, help="ts's intervals= option (default: the package's)")
     ap.add_argument("--white", action="store_true",
                     help="also run ts with noise='white' (column 'white'; the default noise is white today)")
@@ -217,20 +242,29 @@ def main(argv=None) -> int:
     entries = [e for e in load_corpus() if not a.only or e["id"] in a.only]
     rows, drivers, notes = [], [], []
     white_ok = a.white
+    gitdirs = parse_git_options(a.git)
     for e in entries:
-        path = fetch(e, cache, a.shared)
-        if path is None:
+        path = fetch(e, cache, a.shared, gitdirs=gitdirs)
+        loaded_paths = fetch_loaded(e, cache, a.shared, gitdirs=gitdirs)
+        if path is None or loaded_paths is None:
             continue
         meas, reader = read_entry(e, path)
-        res, cpu = _ts(meas, a.seed, None, a.intervals)
+        loaded = [(read_entry(e, q)[0], dm) for q, dm in loaded_paths]
+        bad = bench_fit_mismatch(e, meas)
+        if bad:
+            print(f"skip {e['id']}: its reference differs from the file's own bench fit ({'; '.join(bad)})",
+                  file=sys.stderr)
+            continue
+        res, cpu = _ts(meas, a.seed, None, loaded, a.intervals)
         info = {"id": e["id"], "unit": e["unit"], "reader": reader, "n_points": meas.n_points,
+                "added_masses_kg": [dm for _, dm in loaded], "method": res.method,
                 "f_range_hz": [float(meas.f_hz[0]), float(meas.f_hz[-1])], "model": res.model,
                 "cpu_s": {"default": cpu}, "warnings": [w.get("code") for w in res.warnings],
                 "model_spread": res.inputs.get("model_spread", {}).get("included")}
         white = None
         if white_ok:
             try:
-                white, cpu_w = _ts(meas, a.seed, "white")
+                white, cpu_w = _ts(meas, a.seed, "white", loaded)
                 info["cpu_s"]["white"] = cpu_w
             except TypeError:  # this package has no noise option
                 white_ok = False
@@ -255,7 +289,8 @@ def main(argv=None) -> int:
                          "reference_kind": e["reference_kind"],
                          "columns": {k: v for k, v in cols.items() if v}})
         print(f"# {e['id']}: {e['unit']}; {meas.n_points} points {meas.f_hz[0]:.4g}-{meas.f_hz[-1]:.4g} Hz, "
-              f"read by {reader}; reference: {e['reference_kind']}; model {res.model}; "
+              f"read by {reader}; " + "".join(f"+ {1e3 * dm:g} g added; " for _, dm in loaded)
+              + f"reference: {e['reference_kind']}; method {res.method}, model {res.model}; "
               f"ts {cpu:.1f} CPU s", flush=True)
     if not rows:
         print("no recording available: run scripts/truth/fetch.py (network to GitHub) first", file=sys.stderr)
