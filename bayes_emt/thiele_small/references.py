@@ -97,9 +97,10 @@ def disagreements(parameters: dict, model_free: dict | None) -> list[dict]:
             diff = 100.0 * (q["value"] - p["value"]) / p["value"]
             short = (f"model-free {name} {q['value'] * f:.4g}{u} and the model's {p['value'] * f:.4g}{u} "
                      "differ by "
-                     f"{diff:+.1f} %, beyond both 90 % intervals")
+                     f"{diff:+.1f} %, beyond both methods' own 90 % intervals")
             out.append({"code": "model_free_disagrees", "short": short,
-                        "message": short + ": information, not an error (creep or a frequency-dependent "
+                        "message": short + " (the default ci90 includes this spread: definitional "
+                        "uncertainty): information, not an error (creep or a frequency-dependent "
                         "suspension widens the peak, a lossy coil moves the phase zero, a box or baffle "
                         "adds stiffness; Small's method assumes a plain mass-spring-damper)"})
     return out
