@@ -47,9 +47,15 @@ def run_case(case: str, seed: int, *, fast: bool, points: int, noise: str = "whi
     t0 = time.perf_counter()
     r = thiele_small(sim.free, spec, sd=sim.sd, fast=fast, seed=seed, models_for_spread=[], noise=noise, **kw)
     inside = {k: bool(p["ci90"][0] <= sim.truth[k] <= p["ci90"][1]) for k, p in r.parameters.items()}
+    # the model's own interval (before the definitional spread between methods) and the width ratio
+    model_ci = {k: p.get("ci90_model") or p["ci90"] for k, p in r.parameters.items()}
+    inside_model = {k: bool(c[0] <= sim.truth[k] <= c[1]) for k, c in model_ci.items()}
+    ratio = {k: (p["ci90"][1] - p["ci90"][0]) / (model_ci[k][1] - model_ci[k][0])
+             for k, p in r.parameters.items() if model_ci[k][1] > model_ci[k][0]}
     return {"case": case, "seed": seed, "method": "laplace" if fast else "posterior", "points": points,
             "noise": noise,
-            "seconds": time.perf_counter() - t0, "inside": inside,
+            "seconds": time.perf_counter() - t0, "inside": inside, "inside_model": inside_model,
+            "width_ratio_to_model": ratio,
             "truth": {k: sim.truth[k] for k in r.parameters},
             "value": {k: p["value"] for k, p in r.parameters.items()},
             "ci90": {k: p["ci90"] for k, p in r.parameters.items()},
@@ -67,7 +73,12 @@ def summary(records: list[dict]) -> str:
         lines.append(f"{case} ({CASES[case]}), {len(recs)} seeds, {recs[0]['method']} intervals, "
                      f"{recs[0]['points']} points per recording, "
                      f"median {np.median([r['seconds'] for r in recs]):.1f} s")
+        covm = {n: np.mean([r["inside_model"][n] for r in recs if n in r.get("inside_model", {})] or [np.nan])
+                for n in names}
+        wr = {n: np.median([r["width_ratio_to_model"][n] for r in recs
+                            if n in r.get("width_ratio_to_model", {})] or [np.nan]) for n in names}
         lines += [f"  {n:20s} coverage {100 * c:5.1f} %{'' if c >= 0.8 else '  < 80 %'}"
+                  f"   model's own {100 * covm[n]:5.1f} %, width ratio {wr[n]:.2f} (median)"
                   for n, c in cov.items()]
     return "\n".join(lines)
 
