@@ -101,13 +101,15 @@ def test_klippel_export_is_fitted_from_its_magnitude():
 def test_magnitude_only_posterior_intervals_cover_the_truth():
     """20 simulated drivers (I+semi_inductance, 0.5 % noise, 400 points 10 Hz-2 kHz), phase dropped:
     the T/S posterior's 90 % intervals of fs, Re, Qms, Qes contain the truth in 90 +- 5 % of the
-    80 cases (a calibrated interval stays inside that band with probability about 0.85)."""
+    80 cases (a calibrated interval stays inside that band with probability about 0.85). The
+    model's own interval (``intervals="model"``): the truth is the model's convention, and the default
+    interval adds the spread between methods, which over-covers it by design."""
     inside = []
     for seed in range(20):
         sim, mag = _free(seed)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            r = thiele_small(mag, SPEC, seed=seed, models_for_spread=[])
+            r = thiele_small(mag, SPEC, seed=seed, models_for_spread=[], intervals="model")
         inside += [r.parameters[n]["ci90"][0] <= sim.truth[n] <= r.parameters[n]["ci90"][1] for n in TS]
     cov = float(np.mean(inside))
     assert 0.85 <= cov <= 0.95, cov
