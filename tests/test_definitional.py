@@ -158,3 +158,25 @@ def test_ts_default_interval_spans_the_model_and_the_plateau_on_a_dats_tweeter()
     # the plateau reading and the fit's R0 differ beyond their own uncertainties on this file: Re widens
     re, re_m = r.parameters["Re"], m.parameters["Re"]
     assert re["ci90"][1] - re["ci90"][0] > 2 * (re_m["ci90"][1] - re_m["ci90"][0])
+
+
+def test_cli_intervals_and_no_plateau_options(tmp_path):
+    """``ts --intervals model --no-plateau`` gives the model's own interval and no plateau reading."""
+    import json
+
+    from bayes_emt.cli import main
+
+    path = REALDATA / "sb_SB26STAC-C000-4_dats_freeair.txt"
+    if not path.exists():
+        pytest.skip(f"{path} not available")
+    out = tmp_path / "ts.json"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        code = main(["ts", str(path), "--model", "UD", "--fast", "--spread-models", "none",
+                     "--intervals", "model", "--no-plateau", "--json", str(out)])
+    assert code in (0, 1)
+    d = json.loads(out.read_text())
+    inputs = d.get("inputs", d)
+    assert inputs["intervals"] == "model" and inputs["plateau"] is None
+    assert not any("ci90_model" in p for p in d["parameters"].values())
+    assert main(["ts", str(path), "--intervals", "wide"]) == 2  # bad input: exit status 2, one line

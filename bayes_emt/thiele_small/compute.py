@@ -674,7 +674,7 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
     mf = model_free_record(meas, params, main.label, re_meter=re_t if plat is None else plat.meter,
                            loaded=lm, seed=int(seed),
                            use_phase=meas.meta.get("phase") != "absent")
-    warns += disagreements(params, mf)
+    warns += disagreements(params, mf, spread_included=intervals == "total")
     warns += bench_model_free_notes(meas, mf, meas.meta.get("bench_fit"), seed=int(seed),
                                     use_phase=meas.meta.get("phase") != "absent")
     if plat is not None:

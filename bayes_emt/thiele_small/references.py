@@ -80,7 +80,7 @@ def model_free_record(meas, parameters: dict, model_label: str, re_meter=None, l
         return {"refused": str(exc)}
 
 
-def disagreements(parameters: dict, model_free: dict | None) -> list[dict]:
+def disagreements(parameters: dict, model_free: dict | None, spread_included: bool = True) -> list[dict]:
     """``model_free_disagrees`` warnings: the quantities whose model value and model-free value
     are apart by more than both 90 % intervals (the intervals do not overlap)."""
     if not model_free or "parameters" not in model_free:
@@ -98,11 +98,12 @@ def disagreements(parameters: dict, model_free: dict | None) -> list[dict]:
             short = (f"model-free {name} {q['value'] * f:.4g}{u} and the model's {p['value'] * f:.4g}{u} "
                      "differ by "
                      f"{diff:+.1f} %, beyond both methods' own 90 % intervals")
+            note = " (ci90 includes this spread: definitional uncertainty)" if spread_included else ""
             out.append({"code": "model_free_disagrees", "short": short,
-                        "message": short + " (the default ci90 includes this spread: definitional "
-                        "uncertainty): information, not an error (creep or a frequency-dependent "
-                        "suspension widens the peak, a lossy coil moves the phase zero, a box or baffle "
-                        "adds stiffness; Small's method assumes a plain mass-spring-damper)"})
+                        "message": short + note + ": information, not an error (creep or a "
+                        "frequency-dependent suspension widens the peak, a lossy coil moves the phase "
+                        "zero, a box or baffle adds stiffness; Small's method assumes a plain "
+                        "mass-spring-damper)"})
     return out
 
 
