@@ -48,6 +48,7 @@ from .name import (
     rank_candidates,
 )
 from .prefer import change_band, check_setup, choose, narrow_mode_note, setup_excludes, stability_review
+from .reconcile import final_comparison, healthy_start, kept_findings
 from .sanity import back_off, structure_note
 from .shape import describe_shape, residual_shape
 
@@ -714,6 +715,10 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
         )
     else:
         fit = fit_admittance(meas, model) if fit is None else fit
+        fit, why = healthy_start(meas, fit, cache)
+        if why:
+            say(why)
+            warn.append(why)
         ev0 = fit_log_evidence(meas, fit)
         lz = ev0.log_z
         if ev0.fallback and math.isfinite(lz):
@@ -863,13 +868,27 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
     findings, fit, lz, stab = stability_review(meas, findings, fit, lz, lambda m, v: fit_admittance(
         meas, m, initial=v), lambda f: log_evidence(meas, f))
     warn.extend(stab)
+    recompared = False
+    if deadline is not None and clock() > deadline:
+        warn.append(f"time budget of {time_budget:g} s reached: the final model was not compared with the "
+                    "other coil families (the answer may depend on the start)")
+    else:
+        say("final comparison of the coil families with the found terms")
+        cmp = final_comparison(meas, fit, lz, lambda f: cache.evidence_of(meas, f).log_z, cache=cache,
+                               say=say)
+        if cmp["fit"] is not fit:
+            fit, lz, recompared = cmp["fit"], cmp["log_z"], True
+            findings = kept_findings(findings, fit)
+        if cmp["line"]:
+            say(cmp["line"])
+            warn.append(cmp["line"])
     refused = _sanity(meas, baseline, history, findings, fit, lz)
     if refused is not None:
         changed = refused[1] is not fit
         findings, fit, lz, line = refused
         say(line)
         warn.append(line)
-    if refused is not None and changed:
+    if (refused is not None and changed) or (recompared and refused is None):
         loc = locate_mismatch(meas, fit.model, fit.theta, alpha=alpha, seed=seed + len(locations))
         locations.append({"round": len(locations), "model": fit.model.label, **loc.to_json_dict()})
         unexplained_bands = list(loc.bands)
