@@ -126,81 +126,82 @@ def _without(meas: Measurement, fit: FitResult, term) -> FitResult | None:
         return None
 
 
-def final_comparison(meas: Measurement, final: FitResult, final_lz: float, evidence, *, cache=None,
-                     families=FAMILIES, say=lambda msg: None) -> dict:
-    """The final comparison of the module docstring. ``evidence(fit) -> log Z`` [nats] (the search's own,
-    also for ``final``, whose ``final_lz`` may be a stand-in). Returns ``{"fit", "log_z", "compared":
-    [{"model", "log_z", "defects"}], "tie": [labels within TIE_NATS of the kept one], "line": one line
-    when the answer is not the search's final model or a tie remains, else ""}``; the search's final
-    model is kept when no candidate is healthy."""
+def final_comparison(meas: Measurement, finals, evidence, *, cache=None, families=FAMILIES,
+                     say=lambda msg: None) -> dict:
+    """The final comparison of the module docstring over the final fits ``finals`` the searches reached
+    (the given start's first). ``evidence(fit) -> log Z`` [nats] (the search's own, recomputed for the
+    finals too: a search's log Z may be a stand-in, the maximum likelihood when its Laplace evidence
+    failed, which no evidence can be compared with). Returns ``{"fit", "log_z", "origin": index of
+    the final whose terms the kept fit holds, "compared": [{"model", "log_z", "defects"}], "tie":
+    [labels within TIE_NATS of the kept one], "line": one line when the answer is not the first
+    final or a tie remains, else ""}``; the first final is kept when no candidate is healthy."""
     reuse = None if cache is None else cache.fits
-    seen: dict[str, tuple[FitResult, float, list[str]]] = {}
+    seen: dict[str, tuple] = {}
 
-    def add(fit):
+    def add(fit, origin):
         if fit is None or fit.model.label in seen:
             return
-        # the search's final model too: its log Z may be a stand-in (the maximum likelihood when its
-        # Laplace evidence failed), which no evidence can be compared with
         lz = evidence(fit)
         bad = defects(fit, _added(fit.model, fit.model.base_model()))
-        seen[fit.model.label] = (fit, lz, bad)
+        seen[fit.model.label] = (fit, lz, bad, origin)
         say(f"final comparison: {fit.model.label} log Z {lz:.1f}" + (f" ({'; '.join(bad)})" if bad else ""))
 
-    add(final)
-    extra = _extra(final.model)
-    for fam in families:
-        spec = fam + extra
-        try:
-            m = parse_model_spec(spec)
-        except ValueError:
-            continue
-        if m.label in seen:
-            continue
-        add(_polish(meas, m, final, reuse) if extra else _safe_fit(meas, m, reuse))
+    for i, final in enumerate(finals):
+        add(final, i)
+    for i, final in enumerate(finals):
+        extra = _extra(final.model)
+        for fam in families:
+            try:
+                m = parse_model_spec(fam + extra)
+            except ValueError:
+                continue
+            if m.label not in seen:
+                add(_polish(meas, m, final, reuse) if extra else _safe_fit(meas, m, reuse), i)
 
     def healthy():
-        return [(f, lz) for f, lz, bad in seen.values() if not bad and math.isfinite(lz)]
+        return [(f, lz, o) for f, lz, bad, o in seen.values() if not bad and math.isfinite(lz)]
 
     # backward elimination from the leader: drop a found term while the evidence does not fall
     while True:
         ok = healthy()
         if not ok:
             break
-        lead, lead_lz = max(ok, key=lambda x: x[1])
+        lead, lead_lz, lead_o = max(ok, key=lambda x: x[1])
         better = False
         for t in lead.model.augmentations:
             m = lead.model.without(t)
             if m.label in seen:
                 continue
-            add(_without(meas, lead, t))
+            add(_without(meas, lead, t), lead_o)
             if m.label in seen and seen[m.label][1] >= lead_lz and not seen[m.label][2]:
                 better = True
         if not better:
             break
-    compared = [{"model": k, "log_z": lz, "defects": bad} for k, (_, lz, bad) in seen.items()]
+    compared = [{"model": k, "log_z": v[1], "defects": v[2]} for k, v in seen.items()]
+    first = finals[0]
     ok = healthy()
     if not ok:
-        return {"fit": final, "log_z": final_lz, "compared": compared, "tie": [], "line": ""}
-    final_ev = seen[final.model.label][1]
-    best_lz = max(lz for _, lz in ok)
-    near = [(f, lz) for f, lz in ok if best_lz - lz <= TIE_NATS]
-    keep, keep_lz = min(near, key=lambda x: (x[0].model.ndim, -x[1]))
-    tie = [f.model.label for f, _ in near if f is not keep]
+        return {"fit": first, "log_z": seen[first.model.label][1], "origin": 0, "compared": compared,
+                "tie": [], "line": ""}
+    best_lz = max(lz for _, lz, _ in ok)
+    near = [x for x in ok if best_lz - x[1] <= TIE_NATS]
+    keep, keep_lz, origin = min(near, key=lambda x: (x[0].model.ndim, -x[1]))
+    tie = [f.model.label for f, _, _ in near if f is not keep]
     line = ""
-    if keep is not final:
-        why = (f"log Z {final_ev:.1f}" if math.isfinite(final_ev) else "its evidence could not be computed")
-        if seen[final.model.label][2]:
-            why += "; " + "; ".join(seen[final.model.label][2])
-        line = (f"final comparison: {keep.model.label} (log Z {keep_lz:.1f}) is kept over the search's "
-                f"{final.model.label} ({why}): " + (
-                    "the same data, the found terms on each coil family, terms dropped while the evidence "
-                    "did not fall" if final.model.augmentations else "the same data, each coil family"))
+    if keep is not first:
+        _, first_lz, first_bad, _ = seen[first.model.label]
+        why = f"log Z {first_lz:.1f}" if math.isfinite(first_lz) else "its evidence could not be computed"
+        if first_bad:
+            why += "; " + "; ".join(first_bad)
+        line = (f"final comparison: {keep.model.label} (log Z {keep_lz:.1f}) is kept over "
+                f"{first.model.label} ({why}), by one evidence on the same data over every start's final "
+                "model, its found terms on each coil family, terms dropped while the evidence did not fall")
     if tie:
-        line = (line + "; " if line else "") + (
+        line = (line + "; " if line else "final comparison: ") + (
             "the data cannot tell " + ", ".join(
                 f"{lab} (log Z {seen[lab][1]:.1f})" for lab in [keep.model.label, *tie])
             + f" apart (within {TIE_NATS:g} nats): the simplest, {keep.model.label}, is kept")
-    return {"fit": keep, "log_z": keep_lz, "compared": compared, "tie": tie, "line": line}
+    return {"fit": keep, "log_z": keep_lz, "origin": origin, "compared": compared, "tie": tie, "line": line}
 
 
 def _safe_fit(meas, model, reuse):
