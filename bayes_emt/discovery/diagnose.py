@@ -745,14 +745,27 @@ def diagnose(
         args = (max_rounds, alpha, seed, say, time_budget, setup, t0, clock, deadline, cache, pool, warm)
         d = _diagnose(meas, model, fit, *args, skip_starts=seen)
         rivals = []
+        left = [s for s in starts or () if parse_model_spec(s).label not in seen]
         for s in starts or ():
             if parse_model_spec(s).label in seen:
+                left = [x for x in left if x != s]
                 continue
+            if deadline is not None and clock() > deadline:
+                d = dataclasses.replace(d, warnings=(*d.warnings, (
+                    f"time budget of {time_budget:g} s reached: not searched from {', '.join(left)}, and the "
+                    "final model not compared with theirs: the answer may depend on the start")))
+                break
+            left.remove(s)
             say(f"searching from {s} too: the answer is the final comparison of every start's")
             r = _diagnose(meas, parse_model_spec(s), None, *args, skip_starts=seen)
             if r is not None:
                 rivals.append(r)
-        d = _compare_starts(meas, d, rivals, cache, alpha, seed, say)
+        if deadline is None or clock() <= deadline:
+            d = _compare_starts(meas, d, rivals, cache, alpha, seed, say)
+        elif not left:
+            d = dataclasses.replace(d, warnings=(*d.warnings, (
+                f"time budget of {time_budget:g} s reached: the final models of the starts not compared: "
+                "the answer may depend on the start")))
         return dataclasses.replace(d, search_points=search_points, seconds=time.perf_counter() - t0)
     finally:
         if pool is not None:
