@@ -715,11 +715,11 @@ def diagnose(
         within a factor 10 in frequency, each at least 10 % above the minimum between them).
     exclude_band : ``[(f1_hz, f2_hz), ...]``: points left out (:meth:`Measurement.exclude_bands`),
         e.g. a narrow cone break-up an earlier diagnosis reported as an unmodelled narrow resonance.
-    starts : the other starting models searched from as well (:data:`START_FAMILIES`; ``()``: the
-        given start alone). A start whose fit is broken physics is replaced by the nearest healthy
-        one (:func:`.reconcile.healthy_start`), a start already searched from is not searched again,
-        and the answer is the final comparison of :mod:`.reconcile` over every search's final model:
-        the same whichever start is given.
+    starts : the other starting models (specs or models) searched from as well (:data:`START_FAMILIES`;
+        ``()``: the given start alone). A start whose fit is broken physics is replaced by the nearest
+        healthy one (:func:`.reconcile.healthy_start`), a start already searched from is not searched
+        again, and the answer is the final comparison of :mod:`.reconcile` over every search's final
+        model: the same whichever start is given.
     per_decade : the search runs on at most this many points per decade of frequency
         (:meth:`Measurement.thin`, :data:`SEARCH_PER_DECADE`); ``None`` or ``0``: every point. The
         fits, log Z and band χ² of the result are then of those points (``search_points`` says how
@@ -745,9 +745,11 @@ def diagnose(
         args = (max_rounds, alpha, seed, say, time_budget, setup, t0, clock, deadline, cache, pool, warm)
         d = _diagnose(meas, model, fit, *args, skip_starts=seen)
         rivals = []
-        left = [s for s in starts or () if parse_model_spec(s).label not in seen]
-        for s in starts or ():
-            if parse_model_spec(s).label in seen:
+        starts = [parse_model_spec(s) if isinstance(s, str) else s for s in starts or ()]
+        left = [s.label for s in starts if s.label not in seen]
+        for m in starts:
+            s = m.label
+            if s in seen:
                 left = [x for x in left if x != s]
                 continue
             if deadline is not None and clock() > deadline:
@@ -757,7 +759,7 @@ def diagnose(
                 break
             left.remove(s)
             say(f"searching from {s} too: the answer is the final comparison of every start's")
-            r = _diagnose(meas, parse_model_spec(s), None, *args, skip_starts=seen)
+            r = _diagnose(meas, m, None, *args, skip_starts=seen)
             if r is not None:
                 rivals.append(r)
         if deadline is None or clock() <= deadline:
