@@ -535,7 +535,7 @@ def _compare_starts(meas, d: Diagnosis, rivals, cache, alpha, seed, say) -> Diag
     reached = "; ".join(f"from {x.baseline_model}: {x.final_model}" for x in diags)
     warn = [w for w in origin.warnings if not w.startswith("R0 moved")]
     if len(diags) > 1:
-        warn.append(f"the searches from {len(diags)} starts reached: {reached}; " + (
+        warn.append(f"the searches from {len(diags)} starts reached: {reached}. " + (
             cmp["line"] or f"{win.model.label} has the largest evidence (log Z {cmp['log_z']:.1f})"))
     elif cmp["line"]:
         warn.append(cmp["line"])
