@@ -60,7 +60,7 @@ def start_ladder(model: Model) -> list[str]:
     UD, III, II, I (module docstring)."""
     base = _base_label(model)
     out = []
-    if model.base == "NL" and model.rings is not None:
+    if model.rings is not None:  # the ring ladder
         out += [f"NL({n})" for n in range(model.rings - 1, 1, -1)]
     out += [b for b in ("UD", "III", "II", "I") if b != base]
     return [b + _extra(model) for b in out]
