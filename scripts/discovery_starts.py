@@ -63,11 +63,10 @@ def run_one(name: str, start: str, out: Path) -> dict:
         d = diagnose(meas, parse_model_spec(start), workers=1, time_budget=None)
         lz = fit_log_evidence(meas.thin(SEARCH_PER_DECADE), d.final_fit).log_z
     cpu = time.process_time() - t
-    base = d.baseline_fit.model.names
     lines = 1 + len(summary_lines(d, max_lines=MAX_LINES - 1))
     rec = {"file": name, "start": start, "final_model": d.final_model,
            "findings": [f.physics for f in d.findings], "final_log_z": lz,
-           "defects": defects(d.final_fit, [n for n in d.final_fit.model.names if n not in base]),
+           "defects": defects(d.final_fit, d.final_fit.model.names),
            "default_output_lines": lines, "summary": summary_lines(d, max_lines=MAX_LINES - 1),
            "warnings": list(d.warnings), "cpu_seconds": cpu, "load_average_1min": os.getloadavg()[0],
            "budget_hit": d.budget_hit}

@@ -17,7 +17,8 @@ one the user gets is an accident of the path. Two steps make the answer a compar
   polished from the final fit's values with ``B'``'s own coil values); then each found term is
   dropped in turn from the leader while the evidence does not fall (backward elimination: a term
   that earned its place on one coil model may be absorbed on another). Among the healthy candidates
-  (no defect) the best log Z wins; candidates within :data:`TIE_NATS` of it are a tie the data
+  (no defect, every parameter checked for its prior's edge) the best log Z wins;
+  candidates within :data:`TIE_NATS` of it are a tie the data
   cannot resolve (Kass & Raftery 1995: a Bayes factor below e² ≈ 7 is "positive" at most), and the
   simplest of them (fewest parameters, then best log Z) is kept, the others named with their
   log Z. The decision therefore depends on the set of models compared, not on the order in which
@@ -142,7 +143,9 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
         if fit is None or fit.model.label in seen:
             return
         lz = evidence(fit)
-        bad = defects(fit, _added(fit.model, fit.model.base_model()))
+        # every parameter, the coil family's own too (an NL ring pressed to zero, Pg = 1e-16 on
+        # grs_12SW-4HE, is a broken fit as much as a term's)
+        bad = defects(fit, fit.model.names)
         seen[fit.model.label] = (fit, lz, bad, origin)
         say(f"final comparison: {fit.model.label} log Z {lz:.1f}" + (f" ({'; '.join(bad)})" if bad else ""))
 
