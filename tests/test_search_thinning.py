@@ -52,14 +52,15 @@ def test_a_sparse_sweep_is_left_as_it_is_and_a_linear_one_keeps_its_low_end():
 def test_the_diagnosis_of_a_dense_sweep_runs_on_the_thinned_points_and_says_so():
     model = parse_model_spec("UD")
     meas = simulate(model, PAPER_TABLES["UD"], np.geomspace(1e1, 1e5, 2000), noise=0.003, seed=11)
-    d = diagnose(meas, model, max_rounds=1, workers=1)
+    # the given start alone (starts=()): the thinning, not the other starts' searches, is tested here
+    d = diagnose(meas, model, max_rounds=1, workers=1, starts=())
     sp = d.search_points
     assert sp["n_points"] == 2000 and sp["per_decade"] == SEARCH_PER_DECADE
     assert sp["used"] == d.baseline_fit.n_points == d.final_fit.n_points < 2000
     rec = json.loads(d.to_json())
     assert rec["search_points"] == sp and type(d).from_json_dict(rec).search_points == sp
     assert any("searched on" in n for t in d.tables() for n in t.notes)
-    full = diagnose(meas, model, max_rounds=1, workers=1, per_decade=None)
+    full = diagnose(meas, model, max_rounds=1, workers=1, per_decade=None, starts=())
     assert full.search_points["used"] == 2000 == full.final_fit.n_points
 
 
@@ -69,7 +70,7 @@ def test_a_fit_of_the_whole_recording_is_polished_on_the_search_points():
     model = parse_model_spec("UD")
     meas = simulate(model, PAPER_TABLES["UD"], np.geomspace(1e1, 1e5, 2000), noise=0.003, seed=12)
     fit = fit_admittance(meas, model)
-    d = diagnose(meas, fit=fit, max_rounds=1, workers=1)
+    d = diagnose(meas, fit=fit, max_rounds=1, workers=1, starts=())
     assert d.baseline_fit.n_points == d.search_points["used"] < 2000
     # the same physics on fewer points: the values agree within a few of the full fit's standard errors
     se = np.sqrt(np.diag(fit.cov_z))
@@ -85,7 +86,7 @@ def test_the_command_line_takes_per_decade(tmp_path, capsys):
     data = tmp_path / "dense.csv"
     write_measurement(meas, data)
     out = tmp_path / "d.json"
-    assert main(["diagnose", str(data), "--model", "UD", "--max-rounds", "1", "--workers", "1",
+    assert main(["diagnose", str(data), "--model", "UD", "--max-rounds", "1", "--workers", "1", "--one-start",
                  "--per-decade", "100", "--json", str(out), "--quiet"]) == 0
     rec = json.loads(out.read_text())
     assert rec["search_points"]["per_decade"] == 100 and rec["search_points"]["used"] < 500

@@ -48,13 +48,18 @@ from .name import (
     rank_candidates,
 )
 from .prefer import change_band, check_setup, choose, narrow_mode_note, setup_excludes, stability_review
+from .reconcile import final_comparison, healthy_start, kept_findings
 from .sanity import back_off, structure_note
 from .shape import describe_shape, residual_shape
 
-__all__ = ["Finding", "Diagnosis", "diagnose", "preferred_base_model", "BASELINE_CANDIDATES"]
+__all__ = ["Finding", "Diagnosis", "diagnose", "preferred_base_model", "BASELINE_CANDIDATES",
+           "START_FAMILIES"]
 
 #: base models compared by evidence when no starting model is given
 BASELINE_CANDIDATES: tuple[str, ...] = ("I", "II", "III", "UD")
+#: the starts every diagnosis searches from beside the given one (:mod:`.reconcile`): the coil models
+#: a user starts from (the paper's UD and III, the NL ring ladder's demo start NL(5))
+START_FAMILIES: tuple[str, ...] = ("UD", "III", "NL(5)")
 #: bands examined per round (strongest first)
 MAX_BANDS_PER_ROUND = 3
 #: worker processes fitting the candidates of a band in parallel by default (at most one per core;
@@ -499,6 +504,57 @@ def _mechanics(fit: FitResult, with_se: bool = False) -> dict:
     return {k: (v, se.get(k, float("nan"))) for k, v in out.items()}
 
 
+def _unexplained(meas, fit, bands) -> list[dict]:
+    """The records of the bands ``fit`` leaves unexplained, each with its shape."""
+    out = []
+    for band in bands:
+        shape = residual_shape(meas, fit.model, fit.theta, band)
+        out.append(
+            {
+                "band_rad_s": [band.lo, band.hi],
+                "band_hz": [band.lo / (2 * np.pi), band.hi / (2 * np.pi)],
+                "parts": list(band.parts),
+                "description": describe_shape(band, shape),
+                "shape": shape,
+            }
+        )
+    return out
+
+
+def _compare_starts(meas, d: Diagnosis, rivals, cache, alpha, seed, say) -> Diagnosis:
+    """The final comparison (:func:`.reconcile.final_comparison`) over the final models the searches
+    from every start reached (``d``'s and ``rivals``'): the diagnosis whose final terms the winner
+    holds is returned, its final fit replaced by the winner when that is another coil family or has
+    fewer terms (its findings then those the winner holds, its unexplained bands located afresh), a
+    line in its warnings saying what each start reached and what was kept."""
+    diags = [d, *rivals]
+    evidence = lambda f: cache.evidence_of(meas, f).log_z  # noqa: E731
+    cmp = final_comparison(meas, [x.final_fit for x in diags], evidence, cache=cache, say=say)
+    origin = diags[cmp["origin"]]
+    win = cmp["fit"]
+    reached = "; ".join(f"from {x.baseline_model}: {x.final_model}" for x in diags)
+    warn = [w for w in origin.warnings if not w.startswith("R0 moved")]
+    if len(diags) > 1:
+        warn.append(f"the searches from {len(diags)} starts reached: {reached}. " + (
+            cmp["line"] or f"{win.model.label} has the largest evidence (log Z {cmp['log_z']:.1f})"))
+    elif cmp["line"]:
+        warn.append(cmp["line"])
+    for x in rivals:
+        warn.extend(f"the search from {x.baseline_model}: {w}" for w in x.warnings if "time budget" in w)
+    out = dataclasses.replace(origin, warnings=tuple(warn))
+    if win is not origin.final_fit:
+        loc = locate_mismatch(meas, win.model, win.theta, alpha=alpha, seed=seed + len(origin.locations))
+        out = dataclasses.replace(
+            out, final_fit=win, findings=tuple(kept_findings(origin.findings, win)),
+            unexplained=tuple(_unexplained(meas, win, loc.bands)), final_location=loc,
+            locations=(*origin.locations, {"round": len(origin.locations), "model": win.model.label,
+                                           **loc.to_json_dict()}))
+    r0 = r0_move_warning(out.baseline_fit, out.final_fit)
+    if r0:
+        out = dataclasses.replace(out, warnings=(*out.warnings, r0))
+    return out
+
+
 #: a plant parameter's move counts as beyond its standard error when larger than this many of them
 MOVE_SE = 2.0
 
@@ -623,6 +679,7 @@ def diagnose(
     warm: bool = True,
     per_decade: float | None = SEARCH_PER_DECADE,
     budget_start: float | None = None,
+    starts=START_FAMILIES,
 ) -> Diagnosis:
     """Locate, name and model what ``model`` leaves out of ``meas`` (module docstring).
 
@@ -658,6 +715,11 @@ def diagnose(
         within a factor 10 in frequency, each at least 10 % above the minimum between them).
     exclude_band : ``[(f1_hz, f2_hz), ...]``: points left out (:meth:`Measurement.exclude_bands`),
         e.g. a narrow cone break-up an earlier diagnosis reported as an unmodelled narrow resonance.
+    starts : the other starting models (specs or models) searched from as well (:data:`START_FAMILIES`;
+        ``()``: the given start alone). A start whose fit is broken physics is replaced by the nearest
+        healthy one (:func:`.reconcile.healthy_start`), a start already searched from is not searched
+        again, and the answer is the final comparison of :mod:`.reconcile` over every search's final
+        model: the same whichever start is given.
     per_decade : the search runs on at most this many points per decade of frequency
         (:meth:`Measurement.thin`, :data:`SEARCH_PER_DECADE`); ``None`` or ``0``: every point. The
         fits, log Z and band χ² of the result are then of those points (``search_points`` says how
@@ -679,16 +741,41 @@ def diagnose(
     cache = FitCache()
     pool = _pool(workers)
     try:
-        d = _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup, t0, clock,
-                      deadline, cache, pool, warm)
-        return dataclasses.replace(d, search_points=search_points)
+        seen: set[str] = set()
+        args = (max_rounds, alpha, seed, say, time_budget, setup, t0, clock, deadline, cache, pool, warm)
+        d = _diagnose(meas, model, fit, *args, skip_starts=seen)
+        rivals = []
+        starts = [parse_model_spec(s) if isinstance(s, str) else s for s in starts or ()]
+        left = [s.label for s in starts if s.label not in seen]
+        for m in starts:
+            s = m.label
+            if s in seen:
+                left = [x for x in left if x != s]
+                continue
+            if deadline is not None and clock() > deadline:
+                d = dataclasses.replace(d, warnings=(*d.warnings, (
+                    f"time budget of {time_budget:g} s reached: not searched from {', '.join(left)}, and the "
+                    "final model not compared with theirs: the answer may depend on the start")))
+                break
+            left.remove(s)
+            say(f"searching from {s} too: the answer is the final comparison of every start's")
+            r = _diagnose(meas, m, None, *args, skip_starts=seen)
+            if r is not None:
+                rivals.append(r)
+        if deadline is None or clock() <= deadline:
+            d = _compare_starts(meas, d, rivals, cache, alpha, seed, say)
+        elif not left:
+            d = dataclasses.replace(d, warnings=(*d.warnings, (
+                f"time budget of {time_budget:g} s reached: the final models of the starts not compared: "
+                "the answer may depend on the start")))
+        return dataclasses.replace(d, search_points=search_points, seconds=time.perf_counter() - t0)
     finally:
         if pool is not None:
             pool.shutdown(cancel_futures=True)
 
 
 def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup, t0, clock, deadline,
-              cache, pool, warm) -> Diagnosis:
+              cache, pool, warm, skip_starts=None) -> Diagnosis | None:
     warn: list[str] = []
     if fit is not None:
         if model is not None and model.label != fit.model.label:
@@ -714,6 +801,10 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
         )
     else:
         fit = fit_admittance(meas, model) if fit is None else fit
+        fit, why = healthy_start(meas, fit, cache)
+        if why:
+            say(why)
+            warn.append(why)
         ev0 = fit_log_evidence(meas, fit)
         lz = ev0.log_z
         if ev0.fallback and math.isfinite(lz):
@@ -721,6 +812,10 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
                 f"the Laplace evidence of the starting model {fit.model.label} failed; its log Z is "
                 f"Laplace on the identifiable subspace with the flat directions integrated ({ev0.note})"
             )
+    if skip_starts is not None:
+        if fit.model.label in skip_starts:
+            return None  # a start another search of this diagnosis already ran from
+        skip_starts.add(fit.model.label)
     if not math.isfinite(lz):
         lz = max_log_likelihood(meas, fit)
         warn.append(
@@ -873,18 +968,7 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
         loc = locate_mismatch(meas, fit.model, fit.theta, alpha=alpha, seed=seed + len(locations))
         locations.append({"round": len(locations), "model": fit.model.label, **loc.to_json_dict()})
         unexplained_bands = list(loc.bands)
-    unexplained = []
-    for band in unexplained_bands:
-        shape = residual_shape(meas, fit.model, fit.theta, band)
-        unexplained.append(
-            {
-                "band_rad_s": [band.lo, band.hi],
-                "band_hz": [band.lo / (2 * np.pi), band.hi / (2 * np.pi)],
-                "parts": list(band.parts),
-                "description": describe_shape(band, shape),
-                "shape": shape,
-            }
-        )
+    unexplained = _unexplained(meas, fit, unexplained_bands)
     note = structure_note(refused is not None and refused[3], unexplained, fit)
     if note:
         warn.append(note)

@@ -238,7 +238,8 @@ def search_other(diag, meas: Measurement, other: Measurement, **settings) -> dic
     say = settings.get("progress")
     if say:
         say(f"the second recording {other.source}, diagnosed from {diag.baseline_fit.model.label}:")
-    d_b = diagnose(other, diag.baseline_fit.model, **settings)
+    # from A's start alone (the search other starts would add is A's diagnosis's, not this check's)
+    d_b = diagnose(other, diag.baseline_fit.model, **{"starts": (), **settings})
     mine = set(named_ids(diag))
     fit_a = diag.final_fit
     a = meas.thin(diag.search_points.get("per_decade")) if diag.search_points else meas
