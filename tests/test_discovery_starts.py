@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from bayes_emt.discovery import diagnose
+from bayes_emt.discovery.diagnose import START_FAMILIES
 from bayes_emt.discovery.reconcile import (
     TIE_NATS,
     final_comparison,
@@ -92,7 +93,7 @@ def test_findings_follow_the_kept_model():
 @pytest.mark.slow
 def test_diagnose_from_ud_iii_and_nl5_reaches_the_same_final_model():
     meas = _data()
-    finals = {s: diagnose(meas, parse_model_spec(s), workers=1, time_budget=None)
+    finals = {s: diagnose(meas, parse_model_spec(s), workers=1, time_budget=None, starts=START_FAMILIES)
               for s in ("UD", "III", "NL(5)")}
     labels = {d.final_model for d in finals.values()}
     assert labels == {"UD+winding_capacitance"}, {s: d.final_model for s, d in finals.items()}

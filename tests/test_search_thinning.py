@@ -86,7 +86,7 @@ def test_the_command_line_takes_per_decade(tmp_path, capsys):
     data = tmp_path / "dense.csv"
     write_measurement(meas, data)
     out = tmp_path / "d.json"
-    assert main(["diagnose", str(data), "--model", "UD", "--max-rounds", "1", "--workers", "1", "--one-start",
+    assert main(["diagnose", str(data), "--model", "UD", "--max-rounds", "1", "--workers", "1",
                  "--per-decade", "100", "--json", str(out), "--quiet"]) == 0
     rec = json.loads(out.read_text())
     assert rec["search_points"]["per_decade"] == 100 and rec["search_points"]["used"] < 500
