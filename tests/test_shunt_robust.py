@@ -102,6 +102,34 @@ def test_batched_peaks_match_plant_peak(name):
         assert not pb.exact.any()
 
 
+LS10_44 = {"zeta": 0.10341809777195743, "omega0": 213.7593843475715, "phi": 58.54399567993609,
+           "R0": 8.561617766689015, "Lg": 0.0015970058167539365, "alpha": 0.005093133126425686,
+           "beta": 0.2901108557472927}  # the LS10-44 woofer's UD posterior median (test_shunt_batch_terms)
+
+
+@pytest.mark.parametrize("rs,cs", [(6.417, 1.87), (-5.0, 1.87), (0.0, 0.5), (-8.41418, 1.86969)])
+def test_batched_peaks_below_the_band_match_plant_peak(rs, cs):
+    # a loudspeaker's shunts that flatten the resonance (the response falls from the band's low
+    # edge ω0/40, or peaks below it): the batch searches below the band as Plant.local_peaks does,
+    # for all draws at once (it was one scalar search per draw: 250 of 260 s of shunt --posterior
+    # on the LS10-44 posterior). Heights within 1e-8 relative, no draw handed to Plant.
+    m = build_model("UD")
+    rng = np.random.default_rng(1)
+    th = m.vector(LS10_44) * (1 + 3e-3 * rng.standard_normal((6, m.ndim)))
+    bp = BatchPlant(m, th)
+    pb = rc_peaks_batch(bp, rs, cs, gradients=True)
+    ref = [Plant(m, t).peak(lambda s: rc_impedance(s, rs, cs)).value for t in th]
+    np.testing.assert_allclose(pb.hinf, ref, rtol=1e-8)
+    assert not pb.exact.any()
+    # the gradient of the largest peak against a central difference of Plant's peak in Rs
+    h = 1e-5
+    for i in (0, 3):
+        k = int(np.nanargmax(pb.value[i]))
+        p = Plant(m, th[i])
+        up, dn = (math.log(p.peak(lambda s, r=r: rc_impedance(s, r, cs)).value) for r in (rs + h, rs - h))
+        assert pb.grad[i, k, 0] == pytest.approx((up - dn) / (2 * h), rel=1e-4, abs=1e-7)
+
+
 def test_peak_gradients_match_finite_differences():
     # envelope-theorem gradients d ln h/d(Rs, ln Cs) against central differences of Plant's
     # refined peaks (step 1e-6): agreement 1e-5 relative
