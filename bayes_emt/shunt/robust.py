@@ -35,6 +35,7 @@ from ..models import Model
 from .batch.design import cs_bound, design_draws
 from .batch.peaks import rc_peaks_batch
 from .batch.plant import BatchPlant, SampledShunt
+from .bound import instability_bound
 from .design import design_rc_shunt, evaluate_rc_shunt
 from .draws import DrawGroup, split_halves
 from .report import describe_r0, exact_checks, explain_move, sensitivity
@@ -219,6 +220,26 @@ def _safety(groups, nom_model, nom_theta, nom, on_rob, ohmmeter) -> dict:
     return out
 
 
+_SPARE_CHUNK = 500  # spare draws per BatchPlant while checking stability
+
+
+def _unseen_stability(groups, plants, halves, shunts, sampled) -> list[dict]:
+    """Per shunt ``(Rs, Cs)``: model label → ``(N,)`` stability of the draws the robust choice never
+    saw (the held-back half and every kept draw the mixture did not pick)."""
+    out = [{} for _ in shunts]
+    for g, bp, (_, held) in zip(groups, plants, halves, strict=True):
+        spare = g.spare if g.spare is not None and g.available >= g.n else np.empty((0, g.model.ndim))
+        parts = [[] for _ in shunts]
+        for a in range(0, spare.shape[0], _SPARE_CHUNK):
+            sp = BatchPlant(g.model, spare[a : a + _SPARE_CHUNK], sampled=sampled)
+            for k, (rs, cs) in enumerate(shunts):
+                parts[k].append(sp.crossings(cs, Rs=rs).stable(rs))
+        for k, (rs, cs) in enumerate(shunts):
+            st = bp.crossings(cs, held, Rs=rs).stable(rs)
+            out[k][g.label] = np.concatenate([st, *parts[k]])
+    return out
+
+
 def _boundary(plants, groups, Cs_values, points, Rs_ref) -> dict:
     lo, hi = 0.7 * min(Cs_values), 1.4 * max(Cs_values)
     cs = np.geomspace(lo, hi, points)
@@ -377,12 +398,34 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     if boundary_points:
         boundary = _boundary(plants, groups, list(opt_cs) + [nom.Cs, choice.Cs], boundary_points, choice.Rs)
     n_held = int(held.sum())
-    if rep_rob["p_unstable_ci"][1] > epsilon:
-        need = math.ceil(-math.log(1 - confidence) / epsilon / max(ess_fraction, 1e-12))
-        warns.append(f"P(unstable) of the robust shunt is {rep_rob['p_unstable']:.3g} on {n_held} held-back "
-                     f"draws, but the {confidence:.0%} Clopper-Pearson upper bound is "
-                     f"{rep_rob['p_unstable_ci'][1]:.3g} > epsilon = {epsilon:g}: showing P(unstable) <= "
-                     f"epsilon at this confidence needs about {need} held-back draws with none unstable")
+    t = time.perf_counter()
+    stage("P(unstable) <= epsilon: both shunts on every kept draw the robust choice never saw")
+    avail = {g.label: g.available for g in groups}
+    for rep, st in zip((rep_nom, rep_rob), _unseen_stability(groups, plants, halves,
+                                                             [(nom.Rs, nom.Cs), (choice.Rs, choice.Cs)],
+                                                             sampled), strict=True):
+        rep["p_unstable_bound"] = instability_bound(st, epsilon, confidence, ess_fraction, avail)
+    timing["p_unstable_bound_s"] = time.perf_counter() - t
+    bnd = rep_rob["p_unstable_bound"]
+    if any(g.available < g.n for g in groups):
+        bnd["shown"] = False
+        warns.append("[p_unstable_not_shown] robust: draws were repeated (more asked than the posterior "
+                     "keeps), so the held-back draws are not independent of the design's and no bound on "
+                     "P(unstable) is claimed")
+    elif not bnd["shown"]:
+        worst = max(bnd["per_model"].items(), key=lambda kv: kv[1]["upper_bound"])
+        label, pm = worst
+        need = bnd["draws_needed"]
+        need_txt = ("no finite number of draws shows epsilon = 0" if need is None else
+                    f"showing epsilon = {epsilon:g} needs {need} such draws with none unstable")
+        n_used = int(np.count_nonzero(design & (group == labels.index(label))))
+        tail = ("" if need is None or pm["n_unstable"] else
+                f" (the posterior keeps {pm['draws_available']} draws, {n_used} of them used for the design: "
+                "sample a longer chain, or ask a larger --epsilon)")
+        warns.append(f"[p_unstable_not_shown] robust: {pm['n_unstable']} of the {pm['n_checked']} {label} "
+                     "draws the choice never saw are unstable, which bounds P(unstable) by "
+                     f"{pm['upper_bound']:.3g} ({confidence:.0%} one-sided), not by epsilon = {epsilon:g}: "
+                     f"{need_txt}{tail}")
     if rep_rob["risk_db"] is not None and rep_nom["risk_db"] is not None and \
             rep_rob["risk_db"] > rep_nom["risk_db"]:
         warns.append(f"on the held-back draws the robust shunt's {risk} ({rep_rob['risk_db']:.4f} dB) is "

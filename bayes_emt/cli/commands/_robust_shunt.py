@@ -147,6 +147,15 @@ def run_posterior(args, sampled) -> int:
                   f"the stable held-back draws), the resonance now at {_fmt_att(hz, '.4g')} Hz")
         elif red:
             print(f"{name}: no resonance peak left within f0/3 .. 4 f0 (the response is flat there)")
+    b = rep["robust"].get("p_unstable_bound")
+    if b:
+        pm = "; ".join(f"{lb}: {v['n_unstable']} of {v['n_checked']} unstable, "
+                       f"P(unstable) <= {v['upper_bound']:.3g}" for lb, v in b["per_model"].items())
+        need = ("no finite number" if b["draws_needed"] is None else
+                f"{b['draws_needed']} unseen draws, none unstable")
+        verdict = "SHOWN" if b["shown"] else "NOT shown"
+        print(f"robust: P(unstable) <= {args.epsilon:g} {verdict} on the draws the choice never saw ({pm}; "
+              f"{args.confidence:.0%} one-sided exact binomial bound; showing it needs {need})")
     pd = rep["per_draw"]
     print(f"each draw's own optimum (median, 90 % interval): Rs {_fmt_att(pd['Rs'], '.5f')} ohm, "
           f"Cs {_fmt_att(pd['Cs'], '.5g')} F, attenuation {_fmt_att(pd['attenuation_db'])} dB "
