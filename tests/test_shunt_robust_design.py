@@ -104,6 +104,14 @@ def test_report_holds_the_issue_keys_and_says_why(spread):
         assert 0 <= lo <= rep[name]["p_unstable"] <= hi <= 1
         assert rep[name]["n_draws"] == 60  # the held-back half
     assert set(rep["per_draw"]) >= {"Rs", "Cs", "attenuation_db"}
+    # the damped resonance's Q and frequency, the driver's Qts, Qms and fs, with 90 % intervals
+    for name in ("nominal", "robust"):
+        for key in ("qts_damped", "damped_resonance_hz", "resonance_peak_reduction_db"):
+            s = rep[name][key]
+            assert s["q05"] <= s["median"] <= s["q95"]
+    for key in ("qts", "qms", "fs_hz", "resonance_hz"):
+        assert rep["driver"][key]["q05"] <= rep["driver"][key]["median"] <= rep["driver"][key]["q95"]
+    assert rep["driver"]["qms"]["median"] == pytest.approx(1 / (2 * PAPER_TABLES["NL"]["zeta"]), rel=0.02)
     assert rep["n_draws"] == 120 and rep["models"][0]["label"] == "NL(5)"
     assert rep["why"]["side"] in rep["why"]["text"]
     assert "Stability depends on R0" in rep["r0"]["statement"]

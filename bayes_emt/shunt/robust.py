@@ -38,6 +38,8 @@ from .batch.plant import BatchPlant, SampledShunt
 from .bound import instability_bound
 from .design import design_rc_shunt, evaluate_rc_shunt
 from .draws import DrawGroup, split_halves
+from .qfactor import resonance_q
+from .receptance import rc_impedance, receptance
 from .report import describe_r0, exact_checks, explain_move, sensitivity
 from .risk import RISKS, RiskKind, clopper_pearson, quantiles, risk_value, summary
 from .saa import DrawPool, choose_robust
@@ -155,7 +157,9 @@ def _resonance(plants, Rs, Cs):
     """``(reduction [dB], frequency [Hz])`` per draw of the resonance peak: the largest peak of
     ``|m·G|`` within ``f0/3 .. 4 f0`` (the shunt moves a loudspeaker's resonance up to ~2.7 f0), re
     the open-terminal peak (a loudspeaker's figure: how much the shunt lowers its resonance, and where
-    the resonance went); NaN where no peak is left there (the resonance damped away)."""
+    the resonance went). Where no peak is left there (the resonance damped away) the reduction is
+    that of the largest response within ``f0/3 .. 4 f0`` (on a grid of 400 log-spaced points) and
+    the frequency NaN."""
     red, freq = [], []
     for bp in plants:
         pb = rc_peaks_batch(bp, Rs, Cs, wide=False)
@@ -165,8 +169,17 @@ def _resonance(plants, Rs, Cs):
         v = np.where(np.isfinite(v) & near, v, -np.inf)  # a peak within f0/3 .. 4 f0 (else: none left)
         k = np.argmax(v, axis=1)
         top = v[np.arange(bp.n), k]
-        red.append(np.where(np.isfinite(top), -20 * np.log10(np.maximum(top, 1e-300) / bp.open_peak), np.nan))
-        freq.append(np.where(np.isfinite(top), pb.omega[np.arange(bp.n), k] / (2 * math.pi), np.nan))
+        flat = np.flatnonzero(~np.isfinite(top))
+        if flat.size:
+            w0 = bp.omega0[flat]
+            w = np.geomspace(w0.min() / 3, w0.max() * 4, 400)
+            g = np.abs(receptance(bp.model, bp.thetas[flat], w, lambda s: rc_impedance(s, Rs, Cs)))
+            inside = (w[None, :] >= w0[:, None] / 3) & (w[None, :] <= 4 * w0[:, None])
+            top = top.copy()
+            top[flat] = np.max(np.where(inside, g, 0.0), axis=1)
+        red.append(-20 * np.log10(np.maximum(top, 1e-300) / bp.open_peak))
+        freq.append(np.where(np.isfinite(v[np.arange(bp.n), k]), pb.omega[np.arange(bp.n), k] / (2 * math.pi),
+                             np.nan))
     return np.concatenate(red), np.concatenate(freq)
 
 
@@ -192,6 +205,35 @@ def _design_report(on: ShuntOnDraws, res_parts, risk, alpha, confidence, eff) ->
             "margin_ohm": _margin_summary(on.margin), "per_model": per_model, "source": on.source,
             "resonance_peak_reduction_db": _finite_summary(on.resonance[0][held & on.stable]),
             "resonance_hz": _finite_summary(on.resonance[1][held & on.stable])}
+
+
+def _q_report(groups, halves, on: ShuntOnDraws, held, group) -> dict:
+    """The shunted resonance's Q (Qts', :mod:`bayes_emt.shunt.qfactor`) and frequency [Hz] over the
+    stable held-back draws: ``{"qts_damped": summary, "damped_resonance_hz": summary}``."""
+    qs, fs = [], []
+    for gi, (g, (_, h)) in enumerate(zip(groups, halves, strict=True)):
+        ok = on.stable[held & (group == gi)]
+        q, f = resonance_q(g.model, g.thetas[h[ok]], (on.Rs, on.Cs))
+        qs.append(q), fs.append(f)
+    return {"qts_damped": _finite_summary(np.concatenate(qs)),
+            "damped_resonance_hz": _finite_summary(np.concatenate(fs))}
+
+
+def _driver_report(groups, halves) -> dict:
+    """The driver without a shunt, over the held-back draws: Qts and its resonance [Hz] with a
+    zero-impedance source (an amplifier), Qms (open terminals) and fs = ω0/2π [Hz]."""
+    qts, fts, qms, fs = [], [], [], []
+    for g, (_, h) in zip(groups, halves, strict=True):
+        q, f = resonance_q(g.model, g.thetas[h])
+        qts.append(q), fts.append(f)
+        qms.append(resonance_q(g.model, g.thetas[h], open_terminals=True)[0])
+        fs.append(np.asarray(g.model.mechanics(g.thetas[h])[1], float) / (2 * math.pi))
+    cat = np.concatenate
+    return {"qts": _finite_summary(cat(qts)), "resonance_hz": _finite_summary(cat(fts)),
+            "qms": _finite_summary(cat(qms)), "fs_hz": _finite_summary(cat(fs)),
+            "definition": "Q = w_r |d Re D/dw| / (2 Im D) at the resonance w_r where Re D falls through "
+                          "zero, D = mech + phi^2 s/(Ze + Zx): Small's Qts for Zx = 0 and a resistive "
+                          "coil; Qms with the terminals open"}
 
 
 def _finite_summary(x) -> dict:
@@ -366,6 +408,9 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     parts = (held, group, labels, opt_att, design)
     rep_nom = _design_report(on_nom, parts, risk, alpha, confidence, ess_fraction)
     rep_rob = _design_report(on_rob, parts, risk, alpha, confidence, ess_fraction)
+    for rep, on in ((rep_nom, on_nom), (rep_rob, on_rob)):
+        rep.update(_q_report(groups, halves, on, held, group))
+    driver = _driver_report(groups, halves)
     checks = exact_checks(plants, groups, group, [on_nom, on_rob], sampled)
     for name, c in checks.items():
         rep = rep_nom if name == "nominal" else rep_rob
@@ -438,7 +483,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     timing["total_s"] = time.perf_counter() - t_start
     stage("done")
     report = {
-        "nominal": rep_nom, "robust": rep_rob,
+        "nominal": rep_nom, "robust": rep_rob, "driver": driver,
         "per_draw": {"Rs": summary(opt_rs), "Cs": summary(opt_cs), "attenuation_db": summary(opt_att),
                      "n_fallback": int(opt_fb.sum()), "newton_iterations": iters},
         "n_draws": int(group.size), "n_design": int(design.sum()), "n_held_back": n_held,
