@@ -259,3 +259,22 @@ def test_resonance_q_is_smalls_qts_and_the_series_resistor_rule():
         assert q[0] == pytest.approx(1 / (1 / qms + 1 / (qes * (t["R0"] + rs) / t["R0"])), rel=1e-9)
     assert resonance_q(m, th, open_terminals=True)[0][0] == pytest.approx(qms, rel=1e-9)
 
+
+
+def test_threshold_with_a_capacitance_across_the_terminals_is_zero():
+    # with a winding capacitance the terminal impedance decays like 1/s: in the ideal loop any
+    # negative Rs is unstable (a pole from infinity), so the threshold is Rs = 0 as in
+    # instability_threshold; the batch said a negative threshold and called such shunts stable
+    from catalogue_cases import CASES
+
+    base, extra = CASES["winding_capacitance"]
+    m = build_model(f"{base}+winding_capacitance")
+    th = m.vector({**PAPER_TABLES[base], **extra})
+    th = th * (1 + 1e-3 * np.random.default_rng(2).standard_normal((3, th.size)))
+    bp = BatchPlant(m, th)
+    for c in (0.05, 0.0812):
+        ref = np.array([instability_threshold(m, t, c) for t in th])
+        np.testing.assert_allclose(bp.threshold(c), ref, rtol=0, atol=1e-9)
+        assert np.all(ref >= 0.0)
+    # a sampled-data shunt has no gain at infinity: no pole from there
+    assert np.all(BatchPlant(m, th, sampled=SampledShunt()).threshold(0.0812, Rs=-1.0) < 0)

@@ -178,11 +178,16 @@ class BatchPlant:
         self._inf = self._infinity_candidate()
 
     def _infinity_candidate(self):
-        """``−Z(j∞)`` where the impedance stays bounded at high frequency (model II), else −inf."""
+        """``−Z(j∞)`` where the impedance stays bounded at high frequency (model II), 0 where it decays
+        like ``1/s`` (a capacitance across the terminals: in the ideal loop any negative Rs is then
+        unstable, a pole arriving from infinity), else −inf: as
+        :func:`~bayes_emt.shunt.stability.instability_threshold`. The decaying case is left out for a
+        sampled-data shunt, which has no gain at infinity."""
         z = terminal_impedance(self.model, 1j * np.max(self.omega0) * np.array([1e8, 1e10]), self.thetas)
         bounded = (np.abs(z[:, 1] - z[:, 0]) <= 1e-6 * np.abs(z[:, 1])) & (np.abs(z[:, 1].imag)
                                                                          <= 1e-6 * np.abs(z[:, 1]))
-        return np.where(bounded, -z[:, 1].real, -np.inf)
+        decays = ~bounded & (np.abs(z[:, 1]) <= 0.02 * np.abs(z[:, 0])) & (self.sampled is None)
+        return np.where(bounded, -z[:, 1].real, np.where(decays, 0.0, -np.inf))
 
     def subset(self, idx) -> BatchPlant:
         """The same plant restricted to draws ``idx`` (the cache is shared, not recomputed)."""
