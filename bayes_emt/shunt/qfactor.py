@@ -21,7 +21,9 @@ reduction). With ``Zx = 0`` (an amplifier: zero source impedance) and a resistiv
 383–395); a series resistor ``Zx = Rs`` then gives ``Qes' = Qes (Re + Rs)/Re``. With the coil's own
 reactance (inductance, eddy currents) and with the RC shunt ``Zx = Rs + 1/(jω Cs)`` the electrical
 damping is ``φ² Re{1/(Ze + Zx)}`` and the added stiffness ``−ω φ² Im{1/(Ze + Zx)}``, both at ω_r.
-``Q < 1/√2``: no resonant peak; NaN where ``Re D`` does not fall through zero within ``ω0/4 .. 4 ω0``.
+``Q < 1/√2``: no resonant peak; NaN where ``Re D`` does not fall through zero within ``ω0/3 .. 40 ω0``
+(a negative-resistance shunt can move a loudspeaker's resonance up to 6.5 f0; below ω0/3 lie the
+shunt's electrical resonances, not the driver's).
 """
 
 from __future__ import annotations
@@ -33,7 +35,8 @@ from .receptance import rc_impedance, receptance
 
 __all__ = ["resonance_q"]
 
-_POINTS = 800
+_POINTS = 1600
+_LOW, _HIGH = 3.0, 40.0  # the resonance is looked for within ω0/_LOW .. _HIGH ω0
 _CHUNK = 128
 
 
@@ -57,13 +60,13 @@ def resonance_q(model: Model, thetas, Zs=None, *, open_terminals: bool = False):
 
         def net(s):
             return rc_impedance(s, rs, cs)
-    lw = np.linspace(np.log(w0.min() / 4), np.log(w0.max() * 4), _POINTS)
+    lw = np.linspace(np.log(w0.min() / _LOW), np.log(w0.max() * _HIGH), _POINTS)
     w = np.exp(lw)
     for a in range(0, n, _CHUNK):
         c = np.arange(a, min(a + _CHUNK, n))
         D = 1.0 / receptance(model, thetas[c], w, net)
         re, im = D.real, D.imag
-        inside = (w[None, :-1] >= w0[c, None] / 4) & (w[None, 1:] <= 4 * w0[c, None])
+        inside = (w[None, :-1] >= w0[c, None] / _LOW) & (w[None, 1:] <= _HIGH * w0[c, None])
         r, k = np.nonzero((re[:, :-1] > 0) & (re[:, 1:] <= 0) & inside)
         if r.size == 0:
             continue

@@ -34,7 +34,7 @@ from .._json import strict_json
 from ..models import Model
 from .batch.design import cs_bound, design_draws
 from .batch.peaks import rc_peaks_batch
-from .batch.plant import BatchPlant, SampledShunt
+from .batch.plant import SPAN, BatchPlant, SampledShunt
 from .bound import instability_bound
 from .design import design_rc_shunt, evaluate_rc_shunt
 from .draws import DrawGroup, split_halves
@@ -155,26 +155,27 @@ def _on_draws(plants, name, Rs, Cs, source) -> ShuntOnDraws:
 
 def _resonance(plants, Rs, Cs):
     """``(reduction [dB], frequency [Hz])`` per draw of the resonance peak: the largest peak of
-    ``|m·G|`` within ``f0/3 .. 4 f0`` (the shunt moves a loudspeaker's resonance up to ~2.7 f0), re
+    ``|m·G|`` within ``f0/3 .. 40 f0`` (a negative-resistance shunt moves a loudspeaker's resonance
+    up to 6.5 f0: SB Acoustics MW13TX midrange; below f0/3 lie the shunt's electrical resonances), re
     the open-terminal peak (a loudspeaker's figure: how much the shunt lowers its resonance, and where
     the resonance went). Where no peak is left there (the resonance damped away) the reduction is
-    that of the largest response within ``f0/3 .. 4 f0`` (on a grid of 400 log-spaced points) and
+    that of the largest response within ``f0/3 .. 40 f0`` (on a grid of 800 log-spaced points) and
     the frequency NaN."""
     red, freq = [], []
     for bp in plants:
         pb = rc_peaks_batch(bp, Rs, Cs, wide=False)
         v = pb.value.copy()
         v[:, -1] = np.nan  # the band-edge slot
-        near = (pb.omega > bp.omega0[:, None] / 3) & (pb.omega < 4 * bp.omega0[:, None])
-        v = np.where(np.isfinite(v) & near, v, -np.inf)  # a peak within f0/3 .. 4 f0 (else: none left)
+        near = (pb.omega > bp.omega0[:, None] / 3) & (pb.omega < SPAN * bp.omega0[:, None])
+        v = np.where(np.isfinite(v) & near, v, -np.inf)  # a peak within f0/3 .. 40 f0 (else: none left)
         k = np.argmax(v, axis=1)
         top = v[np.arange(bp.n), k]
         flat = np.flatnonzero(~np.isfinite(top))
         if flat.size:
             w0 = bp.omega0[flat]
-            w = np.geomspace(w0.min() / 3, w0.max() * 4, 400)
+            w = np.geomspace(w0.min() / 3, w0.max() * SPAN, 800)
             g = np.abs(receptance(bp.model, bp.thetas[flat], w, lambda s: rc_impedance(s, Rs, Cs)))
-            inside = (w[None, :] >= w0[:, None] / 3) & (w[None, :] <= 4 * w0[:, None])
+            inside = (w[None, :] >= w0[:, None] / 3) & (w[None, :] <= SPAN * w0[:, None])
             top = top.copy()
             top[flat] = np.max(np.where(inside, g, 0.0), axis=1)
         red.append(-20 * np.log10(np.maximum(top, 1e-300) / bp.open_peak))

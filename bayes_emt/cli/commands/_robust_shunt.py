@@ -155,7 +155,7 @@ def run_posterior(args, sampled) -> int:
             print(f"{name}: resonance peak lowered by {_fmt_att(red, '.2f')} dB (median, 90 % interval over "
                   f"the stable held-back draws), the peak now at {_fmt_att(hz, '.4g')} Hz{qtxt}")
         elif red and red.get("median") is not None:
-            print(f"{name}: no resonance peak left within f0/3 .. 4 f0; the largest response there is "
+            print(f"{name}: no resonance peak left within f0/3 .. 40 f0; the largest response there is "
                   f"{_fmt_att(red, '.2f')} dB below the open-terminal peak (median, 90 % interval){qtxt}")
     b = rep["robust"].get("p_unstable_bound")
     if b:
