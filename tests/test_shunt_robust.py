@@ -244,7 +244,7 @@ def test_resonance_q_is_smalls_qts_and_the_series_resistor_rule():
     # a resistive coil (model I with L0 = 1e-12 H): with a zero-impedance source Q is Small's (1972)
     # Qts = 1/(1/Qms + 1/Qes), Qes = w0 R0/phi^2 (mass-normalised: phi^2 = (Bl)^2/m); a series
     # resistor Rs gives Qes' = Qes (R0 + Rs)/R0; open terminals give Qms = 1/(2 zeta). Tolerance 1e-9
-    # relative (the resonance is found by linear interpolation of Re D, exact here to ~1e-12).
+    # relative (the resonance refined by Newton steps on Re D; measured 7e-12, on any grid size).
     from bayes_emt.shunt.qfactor import resonance_q
 
     m = build_model("I")
@@ -253,7 +253,7 @@ def test_resonance_q_is_smalls_qts_and_the_series_resistor_rule():
     qms, qes = 1 / (2 * t["zeta"]), t["omega0"] * t["R0"] / t["phi"] ** 2
     q, fr = resonance_q(m, th)
     assert q[0] == pytest.approx(1 / (1 / qms + 1 / qes), rel=1e-9)
-    assert fr[0] == pytest.approx(t["omega0"] / (2 * math.pi), rel=1e-5)
+    assert fr[0] == pytest.approx(t["omega0"] / (2 * math.pi), rel=1e-9)
     for rs in (1.0, -0.5 * t["R0"]):
         q, _ = resonance_q(m, th, (rs, 1e9))
         assert q[0] == pytest.approx(1 / (1 / qms + 1 / (qes * (t["R0"] + rs) / t["R0"])), rel=1e-9)

@@ -37,7 +37,7 @@ __all__ = ["resonance_q"]
 
 _POINTS = 1600
 _LOW, _HIGH = 3.0, 40.0  # the resonance is looked for within ω0/_LOW .. _HIGH ω0
-_CHUNK = 128
+_CHUNK = 64
 
 
 def resonance_q(model: Model, thetas, Zs=None, *, open_terminals: bool = False):
@@ -72,15 +72,32 @@ def resonance_q(model: Model, thetas, Zs=None, *, open_terminals: bool = False):
             continue
         t = re[r, k] / (re[r, k] - re[r, k + 1])
         wr = w[k] * np.exp(t * (lw[k + 1] - lw[k]))
-        slope = (re[r, k + 1] - re[r, k]) / (w[k + 1] - w[k])
         imr = im[r, k] + t * (im[r, k + 1] - im[r, k])
-        qk = np.where(imr > 0, wr * np.abs(slope) / (2 * np.where(imr > 0, imr, 1.0)), np.inf)
         # per draw, the crossing with the least damping (the tallest peak)
         key = np.where(imr > 0, imr, np.inf)
         order = np.lexsort((key, r))
         first = np.r_[True, r[order][1:] != r[order][:-1]]
         pick = order[first]
         rows = c[r[pick]]
-        q[rows] = np.where(np.isfinite(qk[pick]), qk[pick], np.nan)
-        fr[rows] = wr[pick] / (2 * np.pi)
+        qr, wr = _polish(model, thetas[rows], wr[pick], net)
+        q[rows], fr[rows] = qr, wr / (2 * np.pi)
     return q, fr
+
+
+def _polish(model, thetas, wr, net, steps: int = 3, h: float = 1e-6):
+    """Newton steps on ``Re D(jω) = 0`` from the grid's ``wr``, each draw at its own frequency
+    (central differences, relative step ``h``), then Q there: the grid's secant slope alone was
+    off by up to half a grid step (0.15 %)."""
+    m = wr.size
+    k = np.arange(m)
+    for it in range(steps + 1):
+        om = np.concatenate([wr, wr * (1 + h), wr * (1 - h)])
+        D = 1.0 / receptance(model, thetas, om, net)
+        d0, dp, dm = D[k, k], D[k, m + k], D[k, 2 * m + k]
+        slope = (dp.real - dm.real) / (2 * h * wr)
+        if it == steps:
+            break
+        ok = slope < 0
+        wr = np.where(ok, wr - np.where(ok, d0.real / np.where(ok, slope, -1.0), 0.0), wr)
+    good = (d0.imag > 0) & (slope < 0)
+    return np.where(good, wr * np.abs(slope) / (2 * np.where(good, d0.imag, 1.0)), np.nan), wr
