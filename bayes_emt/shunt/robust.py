@@ -274,7 +274,7 @@ def _unseen_stability(groups, plants, halves, shunts, sampled) -> list[dict]:
         spare = g.spare if g.spare is not None and g.available >= g.n else np.empty((0, g.model.ndim))
         parts = [[] for _ in shunts]
         for a in range(0, spare.shape[0], _SPARE_CHUNK):
-            sp = BatchPlant(g.model, spare[a : a + _SPARE_CHUNK], sampled=sampled)
+            sp = BatchPlant(g.model, spare[a : a + _SPARE_CHUNK], sampled=sampled, peaks=False)
             for k, (rs, cs) in enumerate(shunts):
                 parts[k].append(sp.crossings(cs, Rs=rs).stable(rs))
         for k, (rs, cs) in enumerate(shunts):

@@ -167,9 +167,10 @@ class BatchPlant:
     ----------
     model : transducer model. thetas : ``(n, k)`` physical parameter vectors.
     sampled : the digital realisation whose delay enters every threshold (None: ideal shunt).
+    peaks : compute the open-terminal peak (False: thresholds only; ``open_peak`` is NaN).
     """
 
-    def __init__(self, model: Model, thetas, *, sampled: SampledShunt | None = None):
+    def __init__(self, model: Model, thetas, *, sampled: SampledShunt | None = None, peaks: bool = True):
         self.model = model
         self.thetas = np.atleast_2d(np.asarray(thetas, float))
         if self.thetas.shape[-1] != model.ndim or self.thetas.ndim != 2:
@@ -179,7 +180,8 @@ class BatchPlant:
         self.sampled = sampled
         self.zeta, self.omega0, self.phi = (np.asarray(v, float) for v in model.mechanics(self.thetas))
         self.R0 = self.thetas[:, model.params.index("R0")]
-        self.open_peak = open_peaks(model, self.thetas)
+        # the open-terminal peak (each attenuation's reference); not needed for thresholds alone
+        self.open_peak = open_peaks(model, self.thetas) if peaks else np.full(self.n, np.nan)
         self.omega = _threshold_grid(self.omega0, self.zeta)
         self._x = np.log(self.omega)
         self._zr = np.empty((self.n, self.omega.size))
