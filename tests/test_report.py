@@ -81,7 +81,17 @@ def run_dir(tmp_path):
         "robust": {"Rs": -2.3801, "Cs": 0.0831,
                    "attenuation_db": {"median": -24.4, "q05": -24.7, "q95": -23.9},
                    "p_unstable": 0.0, "p_unstable_ci": [0.0, 0.0007],
-                   "stability_margin_ohm": 0.0251, "r0_uncertainty_ohm": 0.0231},
+                   "stability_margin_ohm": 0.0251, "r0_uncertainty_ohm": 0.0231,
+                   "qts_damped": {"median": 0.762, "q05": 0.755, "q95": 0.770},
+                   "damped_resonance_hz": {"median": 37.23, "q05": 37.09, "q95": 37.36},
+                   "resonance_peak_reduction_db": {"median": 13.75, "q05": 13.57, "q95": 13.93},
+                   "p_unstable_bound": {"epsilon": 0.001, "confidence": 0.95, "draws_needed": 2995,
+                                        "shown": False, "per_model": {"NL(5)": {
+                                            "n_checked": 1480, "n_unstable": 0, "upper_bound": 0.00202}}}},
+        "driver": {"qts": {"median": 0.501, "q05": 0.496, "q95": 0.506},
+                   "resonance_hz": {"median": 44.96, "q05": 44.54, "q95": 45.31},
+                   "qms": {"median": 4.83, "q05": 4.72, "q95": 4.95},
+                   "fs_hz": {"median": 34.02, "q05": 33.9, "q95": 34.1}},
         "per_draw": {"Rs": {"median": -2.39, "q05": -2.40, "q95": -2.38},
                      "Cs": {"median": 0.081, "q05": 0.080, "q95": 0.083},
                      "attenuation_db": {"median": -24.7, "q05": -24.9, "q95": -24.5}},
@@ -136,6 +146,12 @@ def test_every_section_renders_from_its_saved_output_with_units_and_warnings_on_
     assert re.search(r'<td class="warn" title="the margin is below R0\'s uncertainty">0.0094</td>'
                      r"<td>0.0231</td>", html)
     assert re.search(r"<td>0.0251</td><td>0.0231</td>", html)
+    # what the shunt does to the driver (Q, resonance [Hz], peak reduction [dB], 90 % intervals) and
+    # whether P(unstable) <= epsilon was shown
+    assert "<th>resonance [Hz]</th><th>Q</th><th>peak reduction [dB]</th>" in html
+    assert "Qts 0.501 (0.496 – 0.506)" in html and "Qms 4.83 (4.72 – 4.95)" in html
+    assert "Qts&#39; 0.762 (0.755 – 0.77)" in html and "13.75 (13.57 – 13.93)" in html
+    assert "P(unstable) ≤ 0.001 is not shown" in html and "needs 2995 such draws" in html
     # every figure embedded, none linked
     assert len(re.findall(r'<img src="data:image/png;base64,', html)) == len(COLOURS)
     assert not re.search(r'<img src="(?!data:)', html)

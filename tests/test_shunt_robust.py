@@ -102,6 +102,34 @@ def test_batched_peaks_match_plant_peak(name):
         assert not pb.exact.any()
 
 
+LS10_44 = {"zeta": 0.10341809777195743, "omega0": 213.7593843475715, "phi": 58.54399567993609,
+           "R0": 8.561617766689015, "Lg": 0.0015970058167539365, "alpha": 0.005093133126425686,
+           "beta": 0.2901108557472927}  # the LS10-44 woofer's UD posterior median (test_shunt_batch_terms)
+
+
+@pytest.mark.parametrize("rs,cs", [(6.417, 1.87), (-5.0, 1.87), (0.0, 0.5), (-8.41418, 1.86969)])
+def test_batched_peaks_below_the_band_match_plant_peak(rs, cs):
+    # a loudspeaker's shunts that flatten the resonance (the response falls from the band's low
+    # edge ω0/40, or peaks below it): the batch searches below the band as Plant.local_peaks does,
+    # for all draws at once (it was one scalar search per draw: 250 of 260 s of shunt --posterior
+    # on the LS10-44 posterior). Heights within 1e-8 relative, no draw handed to Plant.
+    m = build_model("UD")
+    rng = np.random.default_rng(1)
+    th = m.vector(LS10_44) * (1 + 3e-3 * rng.standard_normal((6, m.ndim)))
+    bp = BatchPlant(m, th)
+    pb = rc_peaks_batch(bp, rs, cs, gradients=True)
+    ref = [Plant(m, t).peak(lambda s: rc_impedance(s, rs, cs)).value for t in th]
+    np.testing.assert_allclose(pb.hinf, ref, rtol=1e-8)
+    assert not pb.exact.any()
+    # the gradient of the largest peak against a central difference of Plant's peak in Rs
+    h = 1e-5
+    for i in (0, 3):
+        k = int(np.nanargmax(pb.value[i]))
+        p = Plant(m, th[i])
+        up, dn = (math.log(p.peak(lambda s, r=r: rc_impedance(s, r, cs)).value) for r in (rs + h, rs - h))
+        assert pb.grad[i, k, 0] == pytest.approx((up - dn) / (2 * h), rel=1e-4, abs=1e-7)
+
+
 def test_peak_gradients_match_finite_differences():
     # envelope-theorem gradients d ln h/d(Rs, ln Cs) against central differences of Plant's
     # refined peaks (step 1e-6): agreement 1e-5 relative
@@ -209,3 +237,44 @@ def test_sample_mixture_counts_and_halves():
         assert np.intersect1d(d, h).size == 0 and d.size + h.size == g.n and abs(d.size - h.size) <= 1
     again = split_halves(groups, seed=1)
     assert all(np.array_equal(a[0], b[0]) for a, b in zip(halves, again, strict=True))
+
+
+# ---- the Q of the shunted resonance -------------------------------------------------------------
+def test_resonance_q_is_smalls_qts_and_the_series_resistor_rule():
+    # a resistive coil (model I with L0 = 1e-12 H): with a zero-impedance source Q is Small's (1972)
+    # Qts = 1/(1/Qms + 1/Qes), Qes = w0 R0/phi^2 (mass-normalised: phi^2 = (Bl)^2/m); a series
+    # resistor Rs gives Qes' = Qes (R0 + Rs)/R0; open terminals give Qms = 1/(2 zeta). Tolerance 1e-9
+    # relative (the resonance refined by Newton steps on Re D; measured 7e-12, on any grid size).
+    from bayes_emt.shunt.qfactor import resonance_q
+
+    m = build_model("I")
+    t = dict(PAPER_TABLES["I"], L0=1e-12)
+    th = m.vector(t)[None]
+    qms, qes = 1 / (2 * t["zeta"]), t["omega0"] * t["R0"] / t["phi"] ** 2
+    q, fr = resonance_q(m, th)
+    assert q[0] == pytest.approx(1 / (1 / qms + 1 / qes), rel=1e-9)
+    assert fr[0] == pytest.approx(t["omega0"] / (2 * math.pi), rel=1e-9)
+    for rs in (1.0, -0.5 * t["R0"]):
+        q, _ = resonance_q(m, th, (rs, 1e9))
+        assert q[0] == pytest.approx(1 / (1 / qms + 1 / (qes * (t["R0"] + rs) / t["R0"])), rel=1e-9)
+    assert resonance_q(m, th, open_terminals=True)[0][0] == pytest.approx(qms, rel=1e-9)
+
+
+
+def test_threshold_with_a_capacitance_across_the_terminals_is_zero():
+    # with a winding capacitance the terminal impedance decays like 1/s: in the ideal loop any
+    # negative Rs is unstable (a pole from infinity), so the threshold is Rs = 0 as in
+    # instability_threshold; the batch said a negative threshold and called such shunts stable
+    from catalogue_cases import CASES
+
+    base, extra = CASES["winding_capacitance"]
+    m = build_model(f"{base}+winding_capacitance")
+    th = m.vector({**PAPER_TABLES[base], **extra})
+    th = th * (1 + 1e-3 * np.random.default_rng(2).standard_normal((3, th.size)))
+    bp = BatchPlant(m, th)
+    for c in (0.05, 0.0812):
+        ref = np.array([instability_threshold(m, t, c) for t in th])
+        np.testing.assert_allclose(bp.threshold(c), ref, rtol=0, atol=1e-9)
+        assert np.all(ref >= 0.0)
+    # a sampled-data shunt has no gain at infinity: no pole from there
+    assert np.all(BatchPlant(m, th, sampled=SampledShunt()).threshold(0.0812, Rs=-1.0) < 0)

@@ -104,6 +104,14 @@ def test_report_holds_the_issue_keys_and_says_why(spread):
         assert 0 <= lo <= rep[name]["p_unstable"] <= hi <= 1
         assert rep[name]["n_draws"] == 60  # the held-back half
     assert set(rep["per_draw"]) >= {"Rs", "Cs", "attenuation_db"}
+    # the damped resonance's Q and frequency, the driver's Qts, Qms and fs, with 90 % intervals
+    for name in ("nominal", "robust"):
+        for key in ("qts_damped", "damped_resonance_hz", "resonance_peak_reduction_db"):
+            s = rep[name][key]
+            assert s["q05"] <= s["median"] <= s["q95"]
+    for key in ("qts", "qms", "fs_hz", "resonance_hz"):
+        assert rep["driver"][key]["q05"] <= rep["driver"][key]["median"] <= rep["driver"][key]["q95"]
+    assert rep["driver"]["qms"]["median"] == pytest.approx(1 / (2 * PAPER_TABLES["NL"]["zeta"]), rel=0.02)
     assert rep["n_draws"] == 120 and rep["models"][0]["label"] == "NL(5)"
     assert rep["why"]["side"] in rep["why"]["text"]
     assert "Stability depends on R0" in rep["r0"]["statement"]
@@ -274,3 +282,41 @@ def test_plots_return_figures():
     bare = design_robust_shunt(groups)
     with pytest.raises(ValueError, match="boundary"):
         plot_stability_boundary(bare)
+
+
+# ---- P(unstable) <= epsilon, shown on draws the choice never saw --------------------------------
+def test_instability_bound_reference_values():
+    # Tempo, Bai & Dabbene (1997): with N independent samples all good, P(bad) <= eps at confidence
+    # 1 - beta once N >= ln(1/beta)/ln(1/(1 - eps)); eps 1e-3, beta 0.05: 2994.2 -> 2995 draws.
+    # The one-sided Clopper-Pearson bound with none unstable is 1 - beta^(1/N) (to 1e-12).
+    from bayes_emt.shunt.bound import draws_needed, instability_bound, upper_bound
+
+    assert draws_needed(1e-3, 0.95) == 2995
+    assert draws_needed(1e-2, 0.95) == 299
+    assert draws_needed(1e-3, 0.95, ess_fraction=0.5) == 5989
+    assert draws_needed(0.0) is None
+    for n in (10, 500, 2995):
+        assert upper_bound(0, n, 0.95) == pytest.approx(1 - 0.05 ** (1 / n), abs=1e-12)
+    assert upper_bound(0, 2995, 0.95) <= 1e-3 < upper_bound(0, 2994, 0.95)
+    assert upper_bound(1, 2995, 0.95) > 1e-3  # one unstable draw in the minimum sample: not shown
+    rec = instability_bound({"A": np.ones(300, bool), "B": np.r_[np.ones(299, bool), False]}, 1e-2)
+    assert rec["per_model"]["A"]["shown"] and not rec["per_model"]["B"]["shown"] and not rec["shown"]
+
+
+def test_robust_design_says_whether_p_unstable_bound_is_shown():
+    # the shunt is checked on the held-back half and the kept draws the mixture did not pick; with
+    # 400 kept draws (200 unseen + 40 held back) eps = 0.02 is shown (needs 149), eps = 1e-3 is not
+    # (needs 2995) and the warning says how many draws it would need
+    m, th = scattered("NL", 400, 3e-3, seed=7)
+    groups, _ = sample_mixture([(m, th, "NL draws")], [1.0], 80, seed=0)
+    assert groups[0].spare.shape[0] == 320
+    for eps, shown in ((0.02, True), (1e-3, False)):
+        res = design_robust_shunt(groups, epsilon=eps, seed=0)
+        b = res.report["robust"]["p_unstable_bound"]
+        assert b["per_model"]["NL(5)"]["n_checked"] == 40 + 320
+        assert b["per_model"]["NL(5)"]["n_unstable"] == 0
+        assert b["shown"] is shown
+        flagged = [w for w in res.warnings if w.startswith("[p_unstable_not_shown]")]
+        assert bool(flagged) is (not shown)
+        if flagged:
+            assert "needs 2995 such draws" in flagged[0] and "360 NL(5) draws" in flagged[0]

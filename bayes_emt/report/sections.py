@@ -162,7 +162,38 @@ def robust_section(rf: RunFiles, run: dict | None) -> dict:
                 for n, u in (("Rs", "Ω"), ("Cs", "F"), ("attenuation_db", "dB"))]
     return _section("robust", "Robust shunt over the posterior", True, rob=rob, designs=designs,
                     per_draw=per_draw, figures=figs, why=(rob.get("why") or {}).get("text"),
-                    r0=(rob.get("r0") or {}).get("statement"))
+                    r0=(rob.get("r0") or {}).get("statement"), driver=_driver_rows(rob),
+                    bound=_bound_text(rob))
+
+
+def _driver_rows(rob: dict) -> list[dict]:
+    """Rows ``(what, resonance [Hz], Q, peak reduction [dB])``, each a summary (median, q05, q95)
+    or None: the driver on open terminals and on a zero-impedance source, then each shunt."""
+    drv = rob.get("driver") or {}
+    if not drv:
+        return []
+    rows = [{"what": "driver, open terminals", "q_name": "Qms", "hz": drv.get("fs_hz"), "q": drv.get("qms"),
+             "red": None},
+            {"what": "driver, zero-impedance source", "q_name": "Qts", "hz": drv.get("resonance_hz"),
+             "q": drv.get("qts"), "red": None}]
+    for n in ("nominal", "robust"):
+        d = rob.get(n) or {}
+        rows.append({"what": f"{n} shunt", "q_name": "Qts'", "hz": d.get("damped_resonance_hz"),
+                     "q": d.get("qts_damped"), "red": d.get("resonance_peak_reduction_db")})
+    return rows
+
+
+def _bound_text(rob: dict) -> str | None:
+    b = (rob.get("robust") or {}).get("p_unstable_bound")
+    if not isinstance(b, dict) or not b.get("per_model"):
+        return None
+    parts = "; ".join(f"{lb}: {v['n_unstable']} of {v['n_checked']} unstable, "
+                      f"P(unstable) ≤ {v['upper_bound']:.3g}" for lb, v in b["per_model"].items())
+    need = ("no finite number of draws shows it" if b.get("draws_needed") is None else
+            f"showing it needs {b['draws_needed']} such draws, none unstable")
+    verdict = "shown" if b.get("shown") else "not shown"
+    return (f"P(unstable) ≤ {b['epsilon']:g} is {verdict} for the robust shunt on the draws its choice "
+            f"never saw ({parts}; {100 * b['confidence']:.0f} % one-sided exact binomial bound; {need}).")
 
 
 def diagnosis_section(rf: RunFiles, run: dict | None) -> dict:

@@ -34,6 +34,8 @@ class DrawGroup:
     model : the model. thetas : ``(n, k)`` physical parameter vectors [SI].
     source : where they came from (a file path). weight : mixture weight (0..1).
     log_evidence : the model's log evidence [nats], if given. available : kept draws in the source.
+    spare : ``(m, k)`` the source's kept draws not picked (for checking a shunt on draws it was not
+        chosen on, :mod:`bayes_emt.shunt.bound`), or None.
     """
 
     model: Model
@@ -42,6 +44,7 @@ class DrawGroup:
     weight: float = 1.0
     log_evidence: float | None = None
     available: int = 0
+    spare: np.ndarray | None = None
 
     @property
     def label(self) -> str:
@@ -107,7 +110,9 @@ def sample_mixture(posteriors: Sequence[tuple[Model, np.ndarray, str]], weights,
             warns.append(f"{source}: {k} draws asked of {m} kept draws: drawn with replacement "
                          "(repeated draws add no information)")
         pick = rng.choice(m, size=k, replace=replace) if k else np.empty(0, int)
-        groups.append(DrawGroup(model, thetas[pick], source, float(w), lz, m))
+        rest = np.ones(m, bool)
+        rest[pick] = False
+        groups.append(DrawGroup(model, thetas[pick], source, float(w), lz, m, thetas[rest]))
     return groups, warns
 
 

@@ -34,9 +34,12 @@ from .._json import strict_json
 from ..models import Model
 from .batch.design import cs_bound, design_draws
 from .batch.peaks import rc_peaks_batch
-from .batch.plant import BatchPlant, SampledShunt
+from .batch.plant import SPAN, BatchPlant, SampledShunt
+from .bound import instability_bound
 from .design import design_rc_shunt, evaluate_rc_shunt
 from .draws import DrawGroup, split_halves
+from .qfactor import resonance_q
+from .receptance import rc_impedance, receptance
 from .report import describe_r0, exact_checks, explain_move, sensitivity
 from .risk import RISKS, RiskKind, clopper_pearson, quantiles, risk_value, summary
 from .saa import DrawPool, choose_robust
@@ -152,20 +155,32 @@ def _on_draws(plants, name, Rs, Cs, source) -> ShuntOnDraws:
 
 def _resonance(plants, Rs, Cs):
     """``(reduction [dB], frequency [Hz])`` per draw of the resonance peak: the largest peak of
-    ``|m·G|`` within ``f0/3 .. 4 f0`` (the shunt moves a loudspeaker's resonance up to ~2.7 f0), re
+    ``|m·G|`` within ``f0/3 .. 40 f0`` (a negative-resistance shunt moves a loudspeaker's resonance
+    up to 6.5 f0: SB Acoustics MW13TX midrange; below f0/3 lie the shunt's electrical resonances), re
     the open-terminal peak (a loudspeaker's figure: how much the shunt lowers its resonance, and where
-    the resonance went); NaN where no peak is left there (the resonance damped away)."""
+    the resonance went). Where no peak is left there (the resonance damped away) the reduction is
+    that of the largest response within ``f0/3 .. 40 f0`` (on a grid of 800 log-spaced points) and
+    the frequency NaN."""
     red, freq = [], []
     for bp in plants:
         pb = rc_peaks_batch(bp, Rs, Cs, wide=False)
         v = pb.value.copy()
         v[:, -1] = np.nan  # the band-edge slot
-        near = (pb.omega > bp.omega0[:, None] / 3) & (pb.omega < 4 * bp.omega0[:, None])
-        v = np.where(np.isfinite(v) & near, v, -np.inf)  # a peak within f0/3 .. 4 f0 (else: none left)
+        near = (pb.omega > bp.omega0[:, None] / 3) & (pb.omega < SPAN * bp.omega0[:, None])
+        v = np.where(np.isfinite(v) & near, v, -np.inf)  # a peak within f0/3 .. 40 f0 (else: none left)
         k = np.argmax(v, axis=1)
         top = v[np.arange(bp.n), k]
-        red.append(np.where(np.isfinite(top), -20 * np.log10(np.maximum(top, 1e-300) / bp.open_peak), np.nan))
-        freq.append(np.where(np.isfinite(top), pb.omega[np.arange(bp.n), k] / (2 * math.pi), np.nan))
+        flat = np.flatnonzero(~np.isfinite(top))
+        if flat.size:
+            w0 = bp.omega0[flat]
+            w = np.geomspace(w0.min() / 3, w0.max() * SPAN, 800)
+            g = np.abs(receptance(bp.model, bp.thetas[flat], w, lambda s: rc_impedance(s, Rs, Cs)))
+            inside = (w[None, :] >= w0[:, None] / 3) & (w[None, :] <= SPAN * w0[:, None])
+            top = top.copy()
+            top[flat] = np.max(np.where(inside, g, 0.0), axis=1)
+        red.append(-20 * np.log10(np.maximum(top, 1e-300) / bp.open_peak))
+        freq.append(np.where(np.isfinite(v[np.arange(bp.n), k]), pb.omega[np.arange(bp.n), k] / (2 * math.pi),
+                             np.nan))
     return np.concatenate(red), np.concatenate(freq)
 
 
@@ -193,6 +208,35 @@ def _design_report(on: ShuntOnDraws, res_parts, risk, alpha, confidence, eff) ->
             "resonance_hz": _finite_summary(on.resonance[1][held & on.stable])}
 
 
+def _q_report(groups, halves, on: ShuntOnDraws, held, group) -> dict:
+    """The shunted resonance's Q (Qts', :mod:`bayes_emt.shunt.qfactor`) and frequency [Hz] over the
+    stable held-back draws: ``{"qts_damped": summary, "damped_resonance_hz": summary}``."""
+    qs, fs = [], []
+    for gi, (g, (_, h)) in enumerate(zip(groups, halves, strict=True)):
+        ok = on.stable[held & (group == gi)]
+        q, f = resonance_q(g.model, g.thetas[h[ok]], (on.Rs, on.Cs))
+        qs.append(q), fs.append(f)
+    return {"qts_damped": _finite_summary(np.concatenate(qs)),
+            "damped_resonance_hz": _finite_summary(np.concatenate(fs))}
+
+
+def _driver_report(groups, halves) -> dict:
+    """The driver without a shunt, over the held-back draws: Qts and its resonance [Hz] with a
+    zero-impedance source (an amplifier), Qms (open terminals) and fs = ω0/2π [Hz]."""
+    qts, fts, qms, fs = [], [], [], []
+    for g, (_, h) in zip(groups, halves, strict=True):
+        q, f = resonance_q(g.model, g.thetas[h])
+        qts.append(q), fts.append(f)
+        qms.append(resonance_q(g.model, g.thetas[h], open_terminals=True)[0])
+        fs.append(np.asarray(g.model.mechanics(g.thetas[h])[1], float) / (2 * math.pi))
+    cat = np.concatenate
+    return {"qts": _finite_summary(cat(qts)), "resonance_hz": _finite_summary(cat(fts)),
+            "qms": _finite_summary(cat(qms)), "fs_hz": _finite_summary(cat(fs)),
+            "definition": "Q = w_r |d Re D/dw| / (2 Im D) at the resonance w_r where Re D falls through "
+                          "zero, D = mech + phi^2 s/(Ze + Zx): Small's Qts for Zx = 0 and a resistive "
+                          "coil; Qms with the terminals open"}
+
+
 def _finite_summary(x) -> dict:
     x = np.asarray(x, float)
     x = x[np.isfinite(x)]
@@ -216,6 +260,26 @@ def _safety(groups, nom_model, nom_theta, nom, on_rob, ohmmeter) -> dict:
         ev = evaluate_rc_shunt(nom_model, nom_theta, on_rob.Rs, on_rob.Cs)
         out["robust"] = check_margin(on_rob.Rs, on_rob.Cs, ev.Rs_instability, R0, sources,
                                      what="the robust shunt")
+    return out
+
+
+_SPARE_CHUNK = 500  # spare draws per BatchPlant while checking stability
+
+
+def _unseen_stability(groups, plants, halves, shunts, sampled) -> list[dict]:
+    """Per shunt ``(Rs, Cs)``: model label → ``(N,)`` stability of the draws the robust choice never
+    saw (the held-back half and every kept draw the mixture did not pick)."""
+    out = [{} for _ in shunts]
+    for g, bp, (_, held) in zip(groups, plants, halves, strict=True):
+        spare = g.spare if g.spare is not None and g.available >= g.n else np.empty((0, g.model.ndim))
+        parts = [[] for _ in shunts]
+        for a in range(0, spare.shape[0], _SPARE_CHUNK):
+            sp = BatchPlant(g.model, spare[a : a + _SPARE_CHUNK], sampled=sampled, peaks=False)
+            for k, (rs, cs) in enumerate(shunts):
+                parts[k].append(sp.crossings(cs, Rs=rs).stable(rs))
+        for k, (rs, cs) in enumerate(shunts):
+            st = bp.crossings(cs, held, Rs=rs).stable(rs)
+            out[k][g.label] = np.concatenate([st, *parts[k]])
     return out
 
 
@@ -345,6 +409,9 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     parts = (held, group, labels, opt_att, design)
     rep_nom = _design_report(on_nom, parts, risk, alpha, confidence, ess_fraction)
     rep_rob = _design_report(on_rob, parts, risk, alpha, confidence, ess_fraction)
+    for rep, on in ((rep_nom, on_nom), (rep_rob, on_rob)):
+        rep.update(_q_report(groups, halves, on, held, group))
+    driver = _driver_report(groups, halves)
     checks = exact_checks(plants, groups, group, [on_nom, on_rob], sampled)
     for name, c in checks.items():
         rep = rep_nom if name == "nominal" else rep_rob
@@ -377,12 +444,34 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     if boundary_points:
         boundary = _boundary(plants, groups, list(opt_cs) + [nom.Cs, choice.Cs], boundary_points, choice.Rs)
     n_held = int(held.sum())
-    if rep_rob["p_unstable_ci"][1] > epsilon:
-        need = math.ceil(-math.log(1 - confidence) / epsilon / max(ess_fraction, 1e-12))
-        warns.append(f"P(unstable) of the robust shunt is {rep_rob['p_unstable']:.3g} on {n_held} held-back "
-                     f"draws, but the {confidence:.0%} Clopper-Pearson upper bound is "
-                     f"{rep_rob['p_unstable_ci'][1]:.3g} > epsilon = {epsilon:g}: showing P(unstable) <= "
-                     f"epsilon at this confidence needs about {need} held-back draws with none unstable")
+    t = time.perf_counter()
+    stage("P(unstable) <= epsilon: both shunts on every kept draw the robust choice never saw")
+    avail = {g.label: g.available for g in groups}
+    for rep, st in zip((rep_nom, rep_rob), _unseen_stability(groups, plants, halves,
+                                                             [(nom.Rs, nom.Cs), (choice.Rs, choice.Cs)],
+                                                             sampled), strict=True):
+        rep["p_unstable_bound"] = instability_bound(st, epsilon, confidence, ess_fraction, avail)
+    timing["p_unstable_bound_s"] = time.perf_counter() - t
+    bnd = rep_rob["p_unstable_bound"]
+    if any(g.available < g.n for g in groups):
+        bnd["shown"] = False
+        warns.append("[p_unstable_not_shown] robust: draws were repeated (more asked than the posterior "
+                     "keeps), so the held-back draws are not independent of the design's and no bound on "
+                     "P(unstable) is claimed")
+    elif not bnd["shown"]:
+        worst = max(bnd["per_model"].items(), key=lambda kv: kv[1]["upper_bound"])
+        label, pm = worst
+        need = bnd["draws_needed"]
+        need_txt = ("no finite number of draws shows epsilon = 0" if need is None else
+                    f"showing epsilon = {epsilon:g} needs {need} such draws with none unstable")
+        n_used = int(np.count_nonzero(design & (group == labels.index(label))))
+        tail = ("" if need is None or pm["n_unstable"] else
+                f" (the posterior keeps {pm['draws_available']} draws, {n_used} of them used for the design: "
+                "sample a longer chain, or ask a larger --epsilon)")
+        warns.append(f"[p_unstable_not_shown] robust: {pm['n_unstable']} of the {pm['n_checked']} {label} "
+                     "draws the choice never saw are unstable, which bounds P(unstable) by "
+                     f"{pm['upper_bound']:.3g} ({confidence:.0%} one-sided), not by epsilon = {epsilon:g}: "
+                     f"{need_txt}{tail}")
     if rep_rob["risk_db"] is not None and rep_nom["risk_db"] is not None and \
             rep_rob["risk_db"] > rep_nom["risk_db"]:
         warns.append(f"on the held-back draws the robust shunt's {risk} ({rep_rob['risk_db']:.4f} dB) is "
@@ -395,7 +484,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
     timing["total_s"] = time.perf_counter() - t_start
     stage("done")
     report = {
-        "nominal": rep_nom, "robust": rep_rob,
+        "nominal": rep_nom, "robust": rep_rob, "driver": driver,
         "per_draw": {"Rs": summary(opt_rs), "Cs": summary(opt_cs), "attenuation_db": summary(opt_att),
                      "n_fallback": int(opt_fb.sum()), "newton_iterations": iters},
         "n_draws": int(group.size), "n_design": int(design.sum()), "n_held_back": n_held,

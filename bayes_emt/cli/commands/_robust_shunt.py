@@ -139,14 +139,33 @@ def run_posterior(args, sampled) -> int:
     print_table(rows, ("shunt", "Rs [ohm]", "Cs [F]", "attenuation [dB] median (5 %..95 %)",
                        f"{args.risk} [dB]",
                        f"P(unstable) ({args.confidence:.0%} CI)", "min margin [ohm]", "median regret [dB]"))
+    drv = rep.get("driver")
+    if drv and drv["qts"]["median"] is not None:
+        print(f"driver without a shunt (median, 90 % interval over the held-back draws): fs "
+              f"{_fmt_att(drv['fs_hz'], '.4g')} Hz, Qms {_fmt_att(drv['qms'], '.3g')}, Qts "
+              f"{_fmt_att(drv['qts'], '.3g')} with a zero-impedance source (resonance at "
+              f"{_fmt_att(drv['resonance_hz'], '.4g')} Hz)")
     for name in ("nominal", "robust"):
         d = rep[name]
         red, hz = d.get("resonance_peak_reduction_db"), d.get("resonance_hz")
-        if red and red.get("median") is not None:
+        q, qf = d.get("qts_damped"), d.get("damped_resonance_hz")
+        qtxt = ("" if not q or q.get("median") is None else
+                f"; damped Qts' {_fmt_att(q, '.3g')} at {_fmt_att(qf, '.4g')} Hz")
+        if red and red.get("median") is not None and hz and hz.get("median") is not None:
             print(f"{name}: resonance peak lowered by {_fmt_att(red, '.2f')} dB (median, 90 % interval over "
-                  f"the stable held-back draws), the resonance now at {_fmt_att(hz, '.4g')} Hz")
-        elif red:
-            print(f"{name}: no resonance peak left within f0/3 .. 4 f0 (the response is flat there)")
+                  f"the stable held-back draws), the peak now at {_fmt_att(hz, '.4g')} Hz{qtxt}")
+        elif red and red.get("median") is not None:
+            print(f"{name}: no resonance peak left within f0/3 .. 40 f0; the largest response there is "
+                  f"{_fmt_att(red, '.2f')} dB below the open-terminal peak (median, 90 % interval){qtxt}")
+    b = rep["robust"].get("p_unstable_bound")
+    if b:
+        pm = "; ".join(f"{lb}: {v['n_unstable']} of {v['n_checked']} unstable, "
+                       f"P(unstable) <= {v['upper_bound']:.3g}" for lb, v in b["per_model"].items())
+        need = ("no finite number" if b["draws_needed"] is None else
+                f"{b['draws_needed']} unseen draws, none unstable")
+        verdict = "SHOWN" if b["shown"] else "NOT shown"
+        print(f"robust: P(unstable) <= {args.epsilon:g} {verdict} on the draws the choice never saw ({pm}; "
+              f"{args.confidence:.0%} one-sided exact binomial bound; showing it needs {need})")
     pd = rep["per_draw"]
     print(f"each draw's own optimum (median, 90 % interval): Rs {_fmt_att(pd['Rs'], '.5f')} ohm, "
           f"Cs {_fmt_att(pd['Cs'], '.5g')} F, attenuation {_fmt_att(pd['attenuation_db'])} dB "

@@ -20,6 +20,14 @@ same per draw for 20 frequencies as for one, so shared grids beat per-draw loops
    difference in ``Zs`` (``±δ``, error ~(δ/|Ze + Zs|)²), and ``∂Zs/∂Rs = 1``,
    ``∂Zs/∂ log Cs = −1/(Cs s)``. They are interpolated to the peak with the same quartic.
 
+**Below the band.** Where the band's low edge ``ω0/SPAN`` is the largest value (``wide``), the
+nominal design (:meth:`Plant.local_peaks <bayes_emt.shunt.Plant.local_peaks>`) searches a 200×
+wider log band below it (down to ``ω0/WIDE``); :func:`below_band` does the same for all such draws
+at once: one shared coarse grid, the same refinement, the value at ``ω0/WIDE`` where the response
+keeps rising towards zero frequency. (It was one scalar Brent search per draw and per evaluation:
+on a loudspeaker, where the robust choice scores shunts whose response is flat down to the static
+compliance, 250 of the 260 s of ``shunt --posterior``.)
+
 A draw whose largest value lies on the edge of its coarse window is handed to the exact
 :class:`~bayes_emt.shunt.Plant` (rare: a shunt far from any sensible tuning).
 """
@@ -33,7 +41,7 @@ import numpy as np
 from ..receptance import Plant, rc_impedance, receptance
 from .plant import SPAN, BatchPlant, Crossings
 
-__all__ = ["PeakBatch", "rc_peaks_batch", "band_edge", "grid_value", "SLOTS"]
+__all__ = ["PeakBatch", "rc_peaks_batch", "band_edge", "below_band", "grid_value", "SLOTS"]
 
 COARSE = 0.012  # Δ log ω of the coarse grid
 FINE = COARSE / 8
@@ -46,6 +54,7 @@ _VINV = np.linalg.inv(np.vander(np.arange(-2.0, 3.0), 5, increasing=True))
 #: log-frequency step of the nominal design's grid (:class:`Plant`: 2600 points over ω0/40 .. 40 ω0)
 _PLANT_STEP = float(np.log(SPAN * SPAN) / 2599)
 _DIAG_CHUNK = 64  # draws per model call when each draw has its own frequency
+WIDE = 8000.0  # the wide search reaches ω0/WIDE, as Plant._wide_peak does
 SLOTS = 4  # peak slots of a search from scratch: two coarse maxima, the binding crossing, the low edge
 
 
@@ -88,6 +97,63 @@ def band_edge(bp, rows, Rs, Cs, delta=None):
         if g is not None:
             g_e[c] = g[k, k]
     return f_e, f_e > f_n, g_e
+
+
+def below_band(bp, rows, Rs, Cs, delta=None):
+    """The largest value of ``|m·G|`` on ``ω0/WIDE .. ω0/SPAN`` (and the local maximum it leads to,
+    which may lie just above ``ω0/SPAN``), per draw ``rows``: ``(ln h, ω [rad/s], gradient or None,
+    ok)``, the batched :meth:`Plant._wide_peak <bayes_emt.shunt.Plant.local_peaks>` (module
+    docstring). ``Rs``, ``Cs`` are per row of ``rows``."""
+    m = rows.size
+    w0 = bp.omega0[rows]
+    lo, hi = np.log(w0 / WIDE), np.log(w0 / SPAN)
+    x = np.arange(lo.min(), hi.max() + 2 * COARSE, COARSE)
+    f, _ = _log_receptance(bp, rows, np.exp(x), Rs, Cs)
+    inside = (x[None, :] >= lo[:, None]) & (x[None, :] <= hi[:, None] + COARSE)
+    f = np.where(inside, f, -np.inf)
+    j = np.argmax(f, axis=1)
+    first = np.argmax(inside, axis=1)
+    x_out, v_out = np.full(m, np.nan), np.full(m, np.nan)
+    g_out = np.full((m, 2), np.nan) if delta is not None else None
+    ok = np.zeros(m, bool)
+    # rising towards zero frequency: the value at ω0/WIDE (where Plant's wide grid starts)
+    low = j == first
+    if low.any():
+        k = np.flatnonzero(low)
+        fl, _, gl = band_edge_at(bp, rows[k], w0[k] / WIDE, Rs[k], Cs[k], delta)
+        x_out[k], v_out[k], ok[k] = lo[k], fl, True
+        if g_out is not None:
+            g_out[k] = gl
+    k = np.flatnonzero(~low)
+    if k.size:
+        xs, vs, gs, oks = _refine(_Rows(bp, rows), k, x[j[k]], Rs, Cs, FINE, delta)
+        x_out[k], v_out[k], ok[k] = xs, vs, oks
+        if g_out is not None:
+            g_out[k] = gs
+    return v_out, np.exp(x_out), g_out, ok & np.isfinite(v_out)
+
+
+def band_edge_at(bp, rows, omega, Rs, Cs, delta=None):
+    """``ln|m·G|`` (and its gradient) of draw ``rows[i]`` at its own ``omega[i]`` [rad/s]:
+    ``(value (m,), None, gradient (m, 2) or None)``."""
+    m = rows.size
+    out = np.full(m, np.nan)
+    g_out = np.full((m, 2), np.nan) if delta is not None else None
+    for a in range(0, m, _DIAG_CHUNK):
+        c = np.arange(a, min(a + _DIAG_CHUNK, m))
+        f, g = _log_receptance(bp, rows[c], omega[c], Rs[c], Cs[c], delta)
+        k = np.arange(c.size)
+        out[c] = f[k, k]
+        if g is not None:
+            g_out[c] = g[k, k]
+    return out, None, g_out
+
+
+class _Rows:
+    """Draws ``rows`` of a plant, re-indexed ``0..m-1`` (what :func:`_refine` indexes)."""
+
+    def __init__(self, bp, rows):
+        self.model, self.thetas, self.omega0 = bp.model, bp.thetas[rows], bp.omega0[rows]
 
 
 @dataclass(frozen=True)
@@ -241,12 +307,17 @@ def _refine(bp, rows, centres, Rs, Cs, step, delta, follow=None):
     return x_out, v_out, g_out, ok
 
 
-def _coarse(bp, rows, Rs, Cs, cross: Crossings):
-    """Candidate centres ``(m, 3)`` in ``log ω`` and the rows whose maximum left the window."""
+def _coarse(bp, rows, Rs, Cs, cross: Crossings, full: bool = False):
+    """Candidate centres ``(m, 3)`` in ``log ω`` and the rows whose maximum left the window; the
+    window spans the crossings (module docstring), or with ``full`` the whole band
+    ``ω0/SPAN .. SPAN ω0`` (``cross`` then gives the binding crossing only)."""
     w0 = bp.omega0[rows]
-    lo = np.where(np.isfinite(cross.omega_min), cross.omega_min * 0.8, w0 / 2.5)
-    hi = np.where(np.isfinite(cross.omega_max), cross.omega_max * 1.25, w0 * 2.5)
-    lo, hi = np.log(np.maximum(lo, w0 / SPAN)), np.log(np.minimum(hi, w0 * SPAN))
+    if full:
+        lo, hi = np.log(w0 / SPAN), np.log(w0 * SPAN)
+    else:
+        lo = np.where(np.isfinite(cross.omega_min), cross.omega_min * 0.8, w0 / 2.5)
+        hi = np.where(np.isfinite(cross.omega_max), cross.omega_max * 1.25, w0 * 2.5)
+        lo, hi = np.log(np.maximum(lo, w0 / SPAN)), np.log(np.minimum(hi, w0 * SPAN))
     x = np.arange(lo.min() - COARSE, hi.max() + 2 * COARSE, COARSE)
     f, _ = _log_receptance(bp, rows, np.exp(x), Rs, Cs)
     f = np.where((x[None, :] >= lo[:, None]) & (x[None, :] <= hi[:, None]), f, -np.inf)
@@ -267,7 +338,8 @@ def _coarse(bp, rows, Rs, Cs, cross: Crossings):
     gmax = np.max(f, axis=1)
     best_inner = np.max(vals, axis=1)
     escaped = ~(best_inner >= gmax)  # the largest value sits on the window's edge
-    return cent, escaped
+    at_low = escaped & (np.argmax(f, axis=1) == np.argmax(np.isfinite(f), axis=1))  # ... its low edge
+    return cent, escaped, at_low
 
 
 def _exact_rows(bp, rows, Rs, Cs, delta, out_v, out_w, out_g, where):
@@ -310,7 +382,16 @@ def rc_peaks_batch(bp: BatchPlant, Rs, Cs, idx=None, *, gradients: bool = False,
     escaped = np.zeros(m, bool)
     if centres is None:
         cross = crossings if crossings is not None else bp.crossings(Cs, idx, Rs=Rs)
-        cent, escaped = _coarse(sub, local, Rs, Cs, cross)
+        cent, escaped, _ = _coarse(sub, local, Rs, Cs, cross)
+        if escaped.any():
+            # the largest value left the window around the crossings (a shunt that flattens the
+            # resonance: the response falls from the band's low edge): look over the whole band,
+            # as Plant.local_peaks does; a maximum on its low edge is the edge slot's below
+            e = np.flatnonzero(escaped)
+            ce = Crossings(*(np.asarray(a)[e] for a in (cross.threshold, cross.omega_c, cross.omega_min,
+                                                        cross.omega_max, cross.upper)))
+            cent[e], esc_e, low_e = _coarse(_Rows(sub, e), np.arange(e.size), Rs[e], Cs[e], ce, full=True)
+            escaped[e] = esc_e & ~low_e
     else:
         cent = np.log(np.asarray(centres, float))
         # a known peak at the band edge is the edge itself (refining would walk out of the band)
@@ -329,16 +410,24 @@ def rc_peaks_batch(bp: BatchPlant, Rs, Cs, idx=None, *, gradients: bool = False,
         grad[jr[good], jk[good]] = g[good]
     failed = np.zeros(m, bool)
     failed[jr[~good & (jk < 2)]] = True
-    failed |= escaped | ~np.isfinite(value).any(axis=1)
+    failed |= escaped
     # last slot: the low band edge where |m·G| falls inward (a peak of the nominal design's grid)
     fe, is_peak, ge = band_edge(sub, local, Rs, Cs, delta)
+    failed |= ~(np.isfinite(value).any(axis=1) | is_peak)
     value = np.concatenate([value, np.where(is_peak, np.exp(fe), np.nan)[:, None]], axis=1)
     omega = np.concatenate([omega, np.where(is_peak, sub.omega0 / SPAN, np.nan)[:, None]], axis=1)
     if gradients:
         grad = np.concatenate([grad, np.where(is_peak[:, None], ge, np.nan)[:, None]], axis=1)
-    # the edge the largest value: the nominal design searches below the band (Plant.local_peaks)
+    # the edge the largest value: the nominal design searches below the band (Plant.local_peaks);
+    # the batch does the same search for all such draws at once, into the edge's slot
     if wide:
-        failed |= is_peak & ~(np.exp(fe) < np.nanmax(np.where(np.isfinite(value[:, :-1]), value[:, :-1], 0.0),
-                                                  axis=1, initial=0.0))
+        below = np.flatnonzero(is_peak & ~failed & ~(np.exp(fe) < np.nanmax(
+            np.where(np.isfinite(value[:, :-1]), value[:, :-1], 0.0), axis=1, initial=0.0)))
+        if below.size:
+            vb, wb, gb, okb = below_band(sub, below, Rs[below], Cs[below], delta)
+            value[below, -1], omega[below, -1] = np.exp(vb), wb
+            if gradients:
+                grad[below, -1] = gb
+            failed[below[~okb]] = True
     _exact_rows(sub, local, Rs, Cs, delta, value, omega, grad, np.flatnonzero(failed))
     return PeakBatch(value, omega, grad, failed)
