@@ -672,8 +672,8 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
     from .references import bench_comparison, bench_model_free_notes, disagreements, model_free_record
 
     mf = model_free_record(meas, params, main.label, re_meter=re_t if plat is None else plat.meter,
-                           loaded=lm, seed=int(seed),
-                           use_phase=meas.meta.get("phase") != "absent")
+                           loaded=lm, seed=int(seed), use_phase=meas.meta.get("phase") != "absent",
+                           re_meter_source="ohmmeter reading" if plat is None else "low-frequency plateau")
     warns += disagreements(params, mf, spread_included=intervals == "total")
     warns += bench_model_free_notes(meas, mf, meas.meta.get("bench_fit"), seed=int(seed),
                                     use_phase=meas.meta.get("phase") != "absent")

@@ -44,19 +44,21 @@ PLATEAU_FS_RATIO = 8.0
 @dataclass(frozen=True)
 class PlateauReading:
     """The plateau's Re reading: ``meter`` (value ± sd [Ω], mode cut), the rows used (``f_hz``,
-    ``r_ohm`` after the motional correction), the largest correction taken off [Ω] and the fit's own
-    R0 it replaces [Ω]."""
+    ``r_ohm`` after the motional correction), the largest correction taken off [Ω], and the R0 [Ω]
+    of the full-band fit (model ``fit_model``) the correction came from."""
 
     meter: Meter
     f_hz: tuple[float, ...]
     r_ohm: tuple[float, ...]
     max_correction_ohm: float
     r0_fit_ohm: float
+    fit_model: str = ""
 
     def to_json_dict(self) -> dict:
         return {"ohm": self.meter.value, "sd_ohm": self.meter.sd, "mode": self.meter.mode,
                 "rows_f_hz": list(self.f_hz), "rows_ohm": list(self.r_ohm),
                 "max_motional_correction_ohm": self.max_correction_ohm, "r0_fit_ohm": self.r0_fit_ohm,
+                "fit_model": self.fit_model,
                 "how": f"median of Re(Z) at the recording's lowest rows (f <= fs/{PLATEAU_FS_RATIO:g}) less "
                        "the model's motional part there"}
 
@@ -88,7 +90,7 @@ def plateau_reading(meas, model, theta, fs_hz: float) -> PlateauReading | None:
     scatter = float(np.std(r, ddof=1)) if r.size > 1 else _written_resolution(mag[0])
     sd = math.hypot(max(scatter, _written_resolution(mag[0])), 0.5 * float(np.max(np.abs(corr))))
     return PlateauReading(Meter(value, sd, "cut"), tuple(float(x) for x in f), tuple(float(x) for x in r),
-                          float(np.max(np.abs(corr))), r0)
+                          float(np.max(np.abs(corr))), r0, model.label)
 
 
 def _written_resolution(x: float) -> float:
@@ -99,17 +101,18 @@ def _written_resolution(x: float) -> float:
 
 
 def plateau_note(p: PlateauReading) -> dict:
-    """The ``re_from_plateau`` note: the reading and how far a full-band UD fit's R0 was from it."""
+    """The ``re_from_plateau`` note: the reading and how far the full-band fit's R0 was from it."""
     m = p.meter
     diff = 100.0 * (p.r0_fit_ohm - m.value) / m.value
     band = f"{p.f_hz[0]:.3g}-{p.f_hz[-1]:.3g} Hz"
     return {"code": "re_from_plateau",
             "short": f"Re {m.value:.4g} ± {m.sd:.2g} ohm on the recording's lowest rows ({band}); "
-                     f"a full-band UD fit puts R0 {diff:+.1f} % off it",
+                     f"a full-band {p.fit_model} fit puts R0 {diff:+.1f} % off it",
             "message": f"Re {m.value:.4g} ± {m.sd:.2g} ohm is read off the recording's low-frequency plateau "
                        f"({len(p.f_hz)} rows, {band}, below fs/{PLATEAU_FS_RATIO:g}, the model's motional "
                        f"part there taken off: at most {p.max_correction_ohm:.2g} ohm), as the bench reads "
-                       "its own Re; Small's model-free column uses it. A full-band fit of UD puts R0 at "
+                       "its own Re; Small's model-free column uses it. A full-band fit of "
+                       f"{p.fit_model} puts R0 at "
                        f"{p.r0_fit_ohm:.4g} ohm ({diff:+.1f} %): the real part a driver adds between the "
                        "plateau and fs (suspension and coil losses) goes to R0. Re's interval spans both "
                        "(definitional uncertainty); an ohmmeter reading (re=, --re) holds R0 instead"}

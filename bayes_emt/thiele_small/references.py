@@ -58,21 +58,21 @@ def bench_comparison(parameters: dict, bench_fit: dict | None) -> dict | None:
 
 
 def model_free_record(meas, parameters: dict, model_label: str, re_meter=None, loaded=(), seed: int = 0,
-                      use_phase: bool = True) -> dict:
+                      use_phase: bool = True, re_meter_source: str = "ohmmeter reading") -> dict:
     """The ``model_free`` entry of a T/S result: the :class:`~.model_free.ModelFree` record, or
     ``{"refused": reason}`` where Small's method is undefined. Re is the ohmmeter reading when
-    given, else the model's R0 (median, its 90 % interval as ±1.645 sd)."""
+    given (``re_meter_source`` says what it is), else the model's R0 (median, its 90 % interval as
+    ±1.645 sd)."""
+    from .definitional import half_width_sd
     from .model_free import ModelFreeUndefined, model_free_ts
 
     if re_meter is not None:
-        re, source = (float(re_meter.value), float(re_meter.sd)), "ohmmeter reading"
+        re, source = (float(re_meter.value), float(re_meter.sd)), re_meter_source
     else:
         p = parameters.get("Re")
         if p is None:
             return {"refused": "no Re to read r0 = Zmax/Re against"}
-        ci = p.get("ci90")
-        sd = 0.0 if ci is None else (ci[1] - ci[0]) / (2 * 1.6449)
-        re, source = (float(p["value"]), float(sd)), f"model R0 ({model_label})"
+        re, source = (float(p["value"]), half_width_sd(p.get("ci90"))), f"model R0 ({model_label})"
     try:
         return model_free_ts(meas, re, re_source=source, loaded=loaded, seed=seed,
                              use_phase=use_phase).to_json_dict()
