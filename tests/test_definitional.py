@@ -1,5 +1,5 @@
 """Definitional uncertainty (thiele_small/definitional.py) and the low-frequency plateau's Re reading
-(thiele_small/plateau.py, io/resolution.low_band_rows)."""
+(estimation/plateau.py, io/resolution.low_band_rows)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from conftest import REALDATA
 
+from bayes_emt.estimation.plateau import PLATEAU_FS_RATIO, plateau_reading
 from bayes_emt.io.resolution import low_band_rows
 from bayes_emt.thiele_small.definitional import Z90, add_definitional, between_method_sd, widen
-from bayes_emt.thiele_small.plateau import PLATEAU_FS_RATIO, plateau_reading
 from bayes_emt.thiele_small.simulate import simulate_driver
 
 DATS = ["grs_12SW-4HE_dats_0h.txt", "scanspeak_18W-4424G00_dats_0h.txt",

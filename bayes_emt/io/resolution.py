@@ -22,7 +22,7 @@ The dropped rows are not thrown away: each run of copies is one reading of a coa
 frequency to within half the analyser's resolution) in ``meta["low_band"]``. They are not fitted (their
 frequency labels are only good to that half bin), but where the driver's motion is negligible they
 read the voice coil's resistance: the low-frequency plateau a bench reads its own Re from
-(:mod:`bayes_emt.thiele_small.plateau`).
+(:mod:`bayes_emt.estimation.plateau`).
 """
 
 from __future__ import annotations

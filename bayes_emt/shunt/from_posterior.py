@@ -27,6 +27,7 @@ from .._json import strict_json
 from .._record import register_kind
 from ..errors import DataFormatError
 from .draws import mixture_weights, sample_mixture
+from .r0_spread import widen_r0
 from .records import html_table, read_json_record, table
 from .robust import RobustShunt, design_robust_shunt
 
@@ -217,7 +218,8 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
                  confidence: float = 0.95, nominal=None, sampled=None,
                  ohmmeter_tolerance: float | None = None, sources: Sequence[str] | None = None,
                  boundary_points: int = 0,
-                 progress: bool = False, time_budget: float | None = None) -> RobustShuntResult:
+                 progress: bool = False, time_budget: float | None = None,
+                 r0: str = "total") -> RobustShuntResult:
     """Nominal and robust RC shunt from one posterior or a mixture of several (module docstring).
 
     Parameters
@@ -236,7 +238,13 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
     boundary_points : Cs grid of the stability-boundary data (plots; 0: none).
     progress : print a line on stderr as each stage starts (and every 2 s within the long ones).
     time_budget : [wall s] for the robust choice; past it the best shunt so far, with a warning.
+    r0 : ``"total"`` (default): each model's R0 draws widened by the spread between the fit's R0 and
+        the recording's low-frequency plateau where the recording has one
+        (:mod:`bayes_emt.shunt.r0_spread`), so designs, stability and margins see the R0 ``ts``
+        reports; ``"model"``: the posterior's R0 as it is (if the model were exact).
     """
+    if r0 not in ("total", "model"):
+        raise ValueError(f'r0 must be "total" or "model", got {r0!r}')
     posts = list(posteriors) if isinstance(posteriors, list | tuple) else [posteriors]
     if not posts:
         raise ValueError("no posterior given")
@@ -258,6 +266,14 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
         ess = min(ess, float(np.min(p.ess)) / n_kept)
     groups, warns = sample_mixture([(p.model, p.theta(), name) for p, name in zip(posts, names, strict=True)],
                                    w, n_draws, seed=seed, log_evidences=lzs)
+    spreads = []
+    if r0 == "total":
+        groups, spreads = widen_r0(groups, [p.likelihood.meas for p in posts], seed)
+        notes.extend(s.line() for s in spreads)
+        if not spreads and any("R0" in p.model.params.names for p in posts):
+            notes.append("R0 is the posterior's alone (if the model were exact): the recording has no "
+                         "rows below the fitted band to read a second Re from; an ohmmeter reading "
+                         "(--ohmmeter-tolerance) is compared with the margins when given")
     if nominal is not None and not isinstance(nominal, tuple):
         nominal = (nominal.model, np.asarray(nominal.theta, float), f"fit ({nominal.model.label})")
 
@@ -268,7 +284,7 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
                               confidence=confidence, seed=seed, sampled=sampled, ess_fraction=ess,
                               boundary_points=boundary_points, notes=notes + warns,
                               ohmmeter_tolerance=ohmmeter_tolerance, progress=tell if progress else None,
-                              time_budget=time_budget)
+                              time_budget=time_budget, r0_spread=spreads)
     return RobustShuntResult.from_robust(res)
 
 

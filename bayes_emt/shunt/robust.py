@@ -243,9 +243,10 @@ def _finite_summary(x) -> dict:
     return summary(x) if x.size else {"median": None, "q05": None, "q95": None}
 
 
-def _safety(groups, nom_model, nom_theta, nom, on_rob, ohmmeter) -> dict:
+def _safety(groups, nom_model, nom_theta, nom, on_rob, ohmmeter, widened: bool = False) -> dict:
     """Each shunt's stability margin at the nominal point against the R0 uncertainty of the draws
-    (:mod:`bayes_emt.shunt.safety`)."""
+    (:mod:`bayes_emt.shunt.safety`); ``widened``: the draws' R0 carry the spread to the plateau
+    reading (:mod:`bayes_emt.shunt.r0_spread`), so their interval is the total one."""
     R0 = float(nom_theta[nom_model.params.index("R0")])
     pooled, medians = [], []
     for g in groups:
@@ -255,6 +256,8 @@ def _safety(groups, nom_model, nom_theta, nom, on_rob, ohmmeter) -> dict:
             medians.append(float(np.median(r)))
     sources = r0_uncertainty(R0=R0, draws=np.concatenate(pooled) if pooled else None,
                              models=medians if len(medians) > 1 else None, ohmmeter=ohmmeter)
+    if widened and "posterior_interval" in sources:
+        sources["total_interval"] = sources.pop("posterior_interval")
     out = {"nominal": check_margin(nom.Rs, nom.Cs, nom.Rs_instability, R0, sources, what="the nominal shunt")}
     if math.isfinite(on_rob.Rs) and math.isfinite(on_rob.Cs):
         ev = evaluate_rc_shunt(nom_model, nom_theta, on_rob.Rs, on_rob.Cs)
@@ -301,7 +304,8 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
                         confidence: float = 0.95, seed: int = 0, sampled: SampledShunt | None = None,
                         ess_fraction: float = 1.0, boundary_points: int = 0,
                         notes: Sequence[str] = (), ohmmeter_tolerance: float | None = None,
-                        progress=None, time_budget: float | None = None) -> RobustShunt:
+                        progress=None, time_budget: float | None = None,
+                        r0_spread: Sequence = ()) -> RobustShunt:
     """Shunt design under uncertainty (module docstring).
 
     Parameters
@@ -322,6 +326,8 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
         long stages are (``shunt --posterior`` prints these on stderr).
     time_budget : [wall s] for the robust choice (the slow stage); past it the best shunt so far is
         kept and a warning says so (``demo`` gives the step its share of the run).
+    r0_spread : the :class:`~bayes_emt.shunt.r0_spread.R0Spread` each group's R0 draws were widened
+        by (:func:`~bayes_emt.shunt.r0_spread.widen_r0`), reported and named in the margin check.
 
     Both shunts carry ``stability_margin_ohm`` (``Rs −`` the instability threshold at the nominal
     point) and the R0 uncertainty it is compared with (half the pooled draws' 90 % interval of R0,
@@ -421,7 +427,8 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
                          f"{c['disagree']} of {c['checked']} draws checked near the boundary")
     r0 = describe_r0(groups, group, plants, on_nom, on_rob)
     warns.extend(r0.pop("warnings"))
-    safety = _safety(groups, nom_model, np.asarray(nom_theta, float), nom, on_rob, ohmmeter_tolerance)
+    safety = _safety(groups, nom_model, np.asarray(nom_theta, float), nom, on_rob, ohmmeter_tolerance,
+                     widened=any(s.tau_ohm > 0 for s in r0_spread))
     for name, chk in safety.items():
         rep = rep_nom if name == "nominal" else rep_rob
         rep.update({"stability_margin_ohm": chk.stability_margin_ohm,
@@ -496,6 +503,7 @@ def design_robust_shunt(groups: Sequence[DrawGroup], *, nominal: tuple[Model, np
                            "model": nom_model.label, "source": nom_src},
         "robust_choice": choice.info, "why": why, "r0": r0, "sensitivity": sens,
         "safety": {k: v.to_json_dict() for k, v in safety.items()},
+        "r0_spread": [s.to_json_dict() for s in r0_spread],
         "implementation": None if sampled is None else sampled.to_json_dict(),
         "units": {"Rs": "ohm", "Cs": "F", "attenuation_db": "dB", "margin_ohm": "ohm", "R0": "ohm",
                   "regret_db": "dB (>= 0: worse than the draw's own optimum)", "risk_db": "dB"},

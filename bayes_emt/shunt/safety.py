@@ -11,6 +11,9 @@ R0 uncertainty, as a half-width [Ω] per source (:func:`r0_uncertainty`; the lar
 
 * ``fit_standard_error``: 1.645 × the least-squares fit's standard error of R0 (a 90 % half-width);
 * ``posterior_interval``: half the posterior's 90 % interval of R0;
+* ``total_interval``: the same with the R0 draws widened by the spread between the fit's R0 and the
+  recording's low-frequency plateau (:mod:`bayes_emt.shunt.r0_spread`): the interval ``ts`` reports
+  for Re, which says how far another bench's Re may lie;
 * ``model_spread``: the largest difference between this design's R0 and the R0 of the other
   models given (adequate models disagree on R0 when they split the coil's loss differently);
 * ``procedure_spread``: the difference between the fit procedures' R0 (``fit --json`` records it);
@@ -42,6 +45,8 @@ NET_R_EXTREME = 0.01  # |Rs + R0| below this fraction of R0
 
 _WHAT = {"fit_standard_error": "1.645 x the fit's standard error of R0 (90 %)",
          "posterior_interval": "half the posterior's 90 % interval of R0",
+         "total_interval": ("half the 90 % interval of R0 with the spread between the fit's R0 and the "
+                            "recording's low-frequency plateau"),
          "model_spread": "the largest R0 difference to the other models given",
          "procedure_spread": "the R0 difference between the fit procedures",
          "ohmmeter_tolerance": "the ohmmeter's tolerance"}

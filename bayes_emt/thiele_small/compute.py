@@ -71,13 +71,13 @@ import numpy as np
 
 from ..errors import DataFormatError
 from ..estimation.meter import as_meter
+from ..estimation.plateau import plateau_note
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from .curve import fit_curve
 from .definitional import DEFINITIONAL_METHOD, add_definitional, half_width_sd, small_on_curve
 from .from_results import LAPLACE_DRAWS, from_fit, from_posterior, laplace_theta
 from .mixture import MIXTURE_METHOD, mixture_weights, weighted_quantiles
-from .plateau import plateau_note
 from .plausibility import check_inputs, check_result, setup_warnings
 from .relations import NAMES, UNITS, free_air, with_mass, with_sd
 from .result import ThieleSmall
@@ -698,7 +698,7 @@ def _plateau(meas: Measurement, main: Model | None):
     """The low-frequency plateau's Re reading (:mod:`.plateau`) from a least-squares fit of ``main``
     (UD when the model is chosen by evidence), or None (no rows below fs/8, or the fit failed)."""
     from ..estimation.fitting import fit_admittance
-    from .plateau import plateau_reading
+    from ..estimation.plateau import plateau_reading
 
     model = main if main is not None else parse_model_spec("UD")
     try:

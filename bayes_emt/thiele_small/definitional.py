@@ -11,9 +11,10 @@ the distance between our values and other benches' (the documentation's truth pa
 
 Here it is estimated per recording and per quantity as the between-method standard deviation of the
 two methods' values ``a`` (the model mixture) and ``b`` (Small's model-free value on the same
-curve and Re; for Re the low-frequency plateau reading (:mod:`.plateau`) against the model's R0),
-the random-effects ("dark uncertainty") estimate for two methods (DerSimonian & Laird 1986;
-Thompson & Ellison 2011, Accred. Qual. Assur. 16:483):
+curve and Re; for Re the low-frequency plateau reading (:mod:`bayes_emt.estimation.plateau`)
+against the model's R0), the random-effects ("dark uncertainty") estimate for two methods
+(DerSimonian & Laird 1986; Thompson & Ellison 2011, Accred. Qual. Assur. 16:483;
+:mod:`bayes_emt.estimation.dark_uncertainty`):
 
     τ² = max(0, (a − b)²/2 − (u_a² + u_b²)/2),
 
@@ -43,39 +44,14 @@ import math
 
 import numpy as np
 
-__all__ = ["Z90", "DEFINITIONAL_METHOD", "between_method_sd", "widen"]
+from ..estimation.dark_uncertainty import Z90, between_method_sd, half_width_sd, widen
 
-Z90 = 1.6448536269514722  # the standard normal's 95th percentile: a 90 % interval is ±Z90 sd
+__all__ = ["Z90", "DEFINITIONAL_METHOD", "between_method_sd", "half_width_sd", "widen"]
 
 DEFINITIONAL_METHOD = (
     "definitional uncertainty (VIM 2.27): the model mixture's draws convolved with the between-method "
     "spread tau of the model's value and Small's model-free value (Re: the low-frequency plateau reading "
     "and the fit's R0), tau^2 = max(0, (a-b)^2/2 - (u_a^2+u_b^2)/2) (DerSimonian-Laird for two methods)")
-
-
-def half_width_sd(ci) -> float:
-    """The standard uncertainty ``(hi − lo)/(2·Z90)`` of a 90 % interval (0 when there is none)."""
-    if ci is None:
-        return 0.0
-    lo, hi = float(ci[0]), float(ci[1])
-    return (hi - lo) / (2 * Z90) if math.isfinite(lo) and math.isfinite(hi) else 0.0
-
-
-def between_method_sd(a: float, b: float, u_a: float = 0.0, u_b: float = 0.0) -> float:
-    """τ of two methods' values (module docstring); 0 for a non-finite input."""
-    if not all(math.isfinite(x) for x in (a, b, u_a, u_b)):
-        return 0.0
-    return math.sqrt(max(0.0, 0.5 * (a - b) ** 2 - 0.5 * (u_a**2 + u_b**2)))
-
-
-def widen(values: np.ndarray, center: float, tau: float, rng: np.random.Generator) -> np.ndarray:
-    """``values · exp((τ/center)·ε)``: the draws with the definitional spread (log-normal, so a
-    positive quantity stays positive). ``τ = 0`` returns ``values`` unchanged."""
-    values = np.asarray(values, float)
-    if not (tau > 0 and math.isfinite(center) and center != 0):
-        return values
-    return values * np.exp(abs(tau / center) * rng.standard_normal(values.shape))
-
 
 #: the quantities Small's method gives beside the model
 _COMPARED = ("fs", "Qms", "Qes", "Qts")

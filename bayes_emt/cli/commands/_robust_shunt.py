@@ -116,7 +116,8 @@ def run_posterior(args, sampled) -> int:
                           confidence=args.confidence, nominal=nominal, sampled=sampled,
                           ohmmeter_tolerance=_tolerance(args),
                           sources=list(args.posterior), boundary_points=24 if args.plot else 0,
-                          progress=not getattr(args, "quiet", False))
+                          progress=not getattr(args, "quiet", False),
+                          r0=getattr(args, "r0_interval", "total"))
     res = result.detail
     rep = result.report
     mix = ", ".join(f"{g['label']} {100 * g['weight']:.3g} % ({g['n_draws']} draws)" for g in rep["models"])

@@ -87,6 +87,11 @@ def register(sub) -> None:
                    help="tolerance [ohm] of a DC resistance measurement of R0: the stability margin is "
                         "compared with it too (besides the fit's standard error, the procedures' R0 and, "
                         "with --evaluate-on or several --posterior, the other models' R0)")
+    p.add_argument("--r0-interval", choices=["total", "model"], default="total",
+                   help="with --posterior: 'total' (default) widens each model's R0 draws by the spread "
+                        "between the fit's R0 and the recording's low-frequency plateau (the Re interval "
+                        "ts reports), so every draw's design, the stability constraint and the margins see "
+                        "it; 'model': the posterior's R0 alone (if the model were exact)")
     p.add_argument("--bandwidth", type=quantity("frequency", bare="rad/s"), default=None, metavar="W",
                    help="the shunt realisation's bandwidth [rad/s, or with a unit: 2kHz]: the stability "
                         "constraint leaves out the "

@@ -22,7 +22,8 @@ The reading, from a fit of the recording (``model``, ``theta``):
 the rows it used, or ``None`` when the recording has no such rows below ``fs / PLATEAU_FS_RATIO``.
 ``ts`` does not hold R0 at it (on the real woofers a model held there misfits the band above): it
 is Re for Small's model-free column and the second method for Re's definitional uncertainty
-(:mod:`.definitional`).
+(:mod:`bayes_emt.thiele_small.definitional`); the robust shunt widens its R0 draws by the same
+spread (:mod:`bayes_emt.shunt.r0_spread`).
 """
 
 from __future__ import annotations
