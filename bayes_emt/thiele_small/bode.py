@@ -45,7 +45,8 @@ __all__ = ["DEPARTURE_NOISE_FACTOR", "DEPARTURE_MIN_DEG", "RESONANCE_SPAN", "min
 
 #: a departure is reported when it exceeds this many times the recorded phase's own noise ...
 DEPARTURE_NOISE_FACTOR = 10.0
-#: ... and this many degrees (below it a fit's T/S values move by well under 1 %)
+#: ... and this many degrees: a third of the smallest departure seen on the DATS exports (1.5° on
+#: the SB26 tweeter, which moved its Qes by 3 % between the fits with and without the phase)
 DEPARTURE_MIN_DEG = 0.5
 #: the residual is continued beyond the band at the median of this many end values
 EDGE_POINTS = 5
@@ -54,10 +55,11 @@ RESONANCE_SPAN = 3.0
 
 
 def phase_departure(curve: dict | None, fs_hz: float | None) -> dict | None:
-    """``{"max_deg", "f_at_max_hz", "band_hz", "noise_deg", "n_points"}``: the largest departure of
-    the recorded phase from the minimum-phase partner of the recorded |Z| over the resonance region
-    (module docstring), or ``None`` when the curve has no recorded phase or fewer than 5 points
-    there."""
+    """``{"max_deg", "signed_deg", "f_at_max_hz", "band_hz", "noise_deg", "n_points"}`` (degrees,
+    Hz): the largest departure of the recorded phase from the minimum-phase partner of the recorded
+    |Z| over the resonance region (module docstring), or ``None`` without a fitted curve or with
+    fewer than 5 points there. A magnitude-only result's curve carries the minimum-phase estimate as
+    its phase, so there is nothing to check: callers skip it."""
     if not curve or "fit_abs_z_ohm" not in curve or fs_hz is None or not math.isfinite(fs_hz) or fs_hz <= 0:
         return None
     f = np.asarray(curve["f_hz"], float)
