@@ -29,7 +29,9 @@ PHASE_ABSENT_NOTE = (
 
 def drop_phase(meas: Measurement, *, why: str = "--magnitude-only") -> Measurement:
     """``meas`` with its phase dropped: |Z| kept, the phase replaced by the minimum-phase estimate,
-    ``meta["phase"] = "absent"``, and one note (also a warning) saying so and why."""
+    ``meta["phase"] = "absent"``, and one note (also a warning) saying so and why. The rows a reader
+    kept below the analyser's resolution (``meta["low_band"]``) lose their phase too, so that nothing
+    downstream (the plateau's Re reading) reads a phase the magnitude-only result says it lacks."""
     if meas.phase_absent:
         return meas
     absz = np.abs(meas.Z)
@@ -38,4 +40,7 @@ def drop_phase(meas: Measurement, *, why: str = "--magnitude-only") -> Measureme
     warnings.warn(note, UserWarning, stacklevel=3)
     meta = {**dict(meas.meta), "phase": "absent", "representation": "magnitude",
             "notices": (*meas.meta.get("notices", ()), note)}
+    low = meta.get("low_band")
+    if isinstance(low, dict) and low.get("phase_deg") is not None:
+        meta["low_band"] = {**low, "phase_deg": None}
     return Measurement(meas.omega, 1.0 / (absz * np.exp(1j * ph)), weights=meas.weights, meta=meta)
