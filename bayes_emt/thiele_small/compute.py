@@ -623,6 +623,10 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
                                        "ci90": [float(lo), float(hi)]}}
     warns += check_result(params, method=method, sd=sd, mms=mms, bl=bl, deltas=[d for _, d in lm])
     warns += setup_warnings(meas, None if bx is None else bx[0])
+    if not meas.phase_absent and "fs" in params:  # is the phase the minimum-phase partner of |Z|?
+        from .bode import phase_departure_note
+
+        warns += phase_departure_note(inp.curve, params["fs"]["value"])
     if fast:
         how = ("the Gaussian (Laplace) approximation of the posterior at its mode"
                if noise == "correlated" and method == "free_air"
