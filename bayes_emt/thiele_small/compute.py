@@ -64,7 +64,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -167,6 +167,22 @@ class _Inputs:
     evidence: bool = True  # compute each model's Laplace evidence (only needed for the model spread)
     curve: dict | None = None  # the main model's fitted free-air curve (curve.fit_curve)
     noise: str = "white"  # the likelihood's noise (bayes_emt.inference.discrepancy)
+    fits: dict = field(default_factory=dict)  # id(recording) -> {model label: FitResult} (_fit)
+
+
+def _fit(meas: Measurement, model: Model, re, fits: dict | None):
+    """``fit_admittance(meas, model, re=re)``, each fit of one recording made once per ``ts`` call:
+    the candidates, the main model's posterior, the plateau reading and the nested fits their
+    starts need (NL's UL surrogate, a term's base model) share ``fits[id(meas)]``
+    (:func:`~bayes_emt.estimation.fitting.fit_reusing`: the result does not depend on it)."""
+    from ..estimation.fitting import fit_admittance, fit_reusing
+
+    if fits is None:
+        return fit_admittance(meas, model, re=re)
+    reuse = fits.setdefault(id(meas), {})
+    if re is None:
+        return fit_reusing(meas, model, reuse)
+    return fit_admittance(meas, model, re=re, reuse=reuse)
 
 
 def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
@@ -234,7 +250,6 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
     ``"point"`` (least squares only; the arrays are then that point), ``"laplace"`` or
     ``"posterior"``. The spread record: ``{"model", "rms", "undetermined", "log_z"}``."""
     from ..added_mass.multi import MultiMassModel, fit_multi_mass, sample_multi_mass
-    from ..estimation.fitting import fit_admittance
     from ..estimation.meter import conflict_warning
     from ..inference.meter_cut import cut_posterior, held_fit
     from ..inference.sampling import sample_posterior
@@ -244,7 +259,7 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
     prior_model = model if meter is None else model.with_priors({"R0": meter.prior()}, where="re")
 
     def single(meas, label):
-        fit = fit_admittance(meas, model, re=inp.re)
+        fit = _fit(meas, model, inp.re, inp.fits)
         warns.extend({"code": w["code"], "message": w["message"], "model": model.label, "run": label}
                      for w in fit.warnings)
         point = fit.theta[None, :]
@@ -527,12 +542,13 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
         bx = (_measurement(rec, "box", read_options, f_range_hz, exclude_band), float(vb))
     method = "added_mass" if lm else "added_volume" if bx else "free_air"
     plat = None
+    fits: dict = {}
     if plateau and re_t is None and meas.meta.get("low_band"):
-        plat = _plateau(meas, main)
+        plat = _plateau(meas, main, fits)
     if noise not in ("correlated", "white"):
         raise ValueError(f"noise must be 'correlated' or 'white', got {noise!r}")
     inp = _Inputs(meas, lm, bx, sd, re_t, mms, bl, float(air_density), float(sound_speed), int(seed),
-                  settings if settings is not None else _ts_sampler(), noise=noise)
+                  settings if settings is not None else _ts_sampler(), noise=noise, fits=fits)
     warns: list[dict] = []
     mode = "laplace" if fast else "posterior"
     # a mixture component per candidate (free air, posterior intervals), else its point values only
@@ -698,15 +714,15 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
                        bench_fit=bench_comparison(params, meas.meta.get("bench_fit")))
 
 
-def _plateau(meas: Measurement, main: Model | None):
-    """The low-frequency plateau's Re reading (:mod:`.plateau`) from a least-squares fit of ``main``
-    (UD when the model is chosen by evidence), or None (no rows below fs/8, or the fit failed)."""
-    from ..estimation.fitting import fit_admittance
+def _plateau(meas: Measurement, main: Model | None, fits: dict | None = None):
+    """The low-frequency plateau's Re reading (:mod:`bayes_emt.estimation.plateau`) from a
+    least-squares fit of ``main`` (UD when the model is chosen by evidence; the fit is kept in
+    ``fits`` for the candidates, :func:`_fit`), or None (no rows below fs/8, or the fit failed)."""
     from ..estimation.plateau import plateau_reading
 
     model = main if main is not None else parse_model_spec("UD")
     try:
-        fit = fit_admittance(meas, model)
+        fit = _fit(meas, model, None, fits)
         fs = float(np.asarray(free_air(fit.model, fit.theta[None, :])["fs"]).ravel()[0])
     except Exception:  # noqa: BLE001 - no reading then; the main fit reports its own failure
         return None
