@@ -138,6 +138,55 @@ def _f2_at(bp, idx, Rs, Cs, lnw):
     return _cross(g), ok
 
 
+#: Rs of a design on the stability boundary: this far above the threshold, relative to
+#: ``max(|threshold|, R0)`` (the one-at-a-time design ends within ~1e-15 Ω of it)
+_BOUNDARY_GAP = 1e-9
+_H_THR = 1e-6  # ln Cs step of the threshold's finite difference
+
+
+def _boundary_state(bp, idx, u):
+    """Rs on the stability boundary for ``ln Cs = u`` and the single peak there: ``(Rs, D, g, ok)``
+    with ``D = d ln h/d ln Cs`` along the boundary (``∂/∂ ln Cs + ∂/∂Rs · d threshold/d ln Cs``)."""
+    cs = np.exp(u)
+    thr = bp.threshold(cs, idx)
+    thr2 = bp.threshold(cs * math.exp(_H_THR), idx)
+    rs = thr + _BOUNDARY_GAP * np.maximum(np.abs(thr), bp.R0[idx])
+    pb = rc_peaks_batch(bp, rs, cs, idx, gradients=True, wide=False)
+    v = np.where(np.isfinite(pb.value), pb.value, 0.0)
+    j = np.argmax(v, axis=1)
+    rows = np.arange(idx.size)
+    g = pb.grad[rows, j]
+    one = (np.count_nonzero(v > 0, axis=1) == 1) & np.isfinite(thr) & np.isfinite(thr2)
+    D = g[:, 1] + g[:, 0] * (thr2 - thr) / _H_THR
+    return rs, D, g, one & np.isfinite(D)
+
+
+def _on_boundary(bp, idx, u0, max_iter=30):
+    """Single-peak draws ``idx`` whose optimum lies on the stability boundary (a winding capacitance
+    makes the ideal loop unstable for any negative Rs: threshold 0 at every Cs): Rs on the boundary,
+    ``ln Cs`` by secant steps on ``D = 0`` (:func:`_boundary_state`). Returns ``(Rs, ln Cs, ok)``;
+    ``ok``: converged to one peak with ``D ≈ 0`` and ``∂ ln h/∂Rs > 0`` (the peak would fall only
+    through the boundary: the Karush–Kuhn–Tucker conditions of ``Rs ≥ threshold``)."""
+    u = u0.copy()
+    rs, D, g, ok = _boundary_state(bp, idx, u)
+    du = -np.sign(D) * 0.01
+    live = ok.copy()
+    for _ in range(max_iter):
+        if not live.any():
+            break
+        k = np.flatnonzero(live)
+        u_new = u[k] + du[k]
+        rs_k, D_k, g_k, ok_k = _boundary_state(bp, idx[k], u_new)
+        den = D_k - D[k]
+        step = np.where(den != 0, -D_k * du[k] / np.where(den != 0, den, 1.0), 0.0)
+        step = np.clip(step, -0.1, 0.1)
+        u[k], D[k], rs[k], g[k], ok[k] = u_new, D_k, rs_k, g_k, ok_k
+        du[k] = step
+        live[k] = ok_k & (np.abs(step) > 1e-10)
+    fine = ok & ~live & (g[:, 0] > 0) & (np.abs(D) <= 1e-6 * np.linalg.norm(g, axis=1))
+    return rs, u, fine
+
+
 def cs_bound(bp: BatchPlant) -> np.ndarray:
     """``(n,)`` each draw's upper bound on ``ln Cs``, as :func:`design_rc_shunt` sets it:
     ``Cs_max = 1e3/(L_eq ω0²)`` with ``L_eq = Im(Ze(jω0) − R0)/ω0`` (one model call per chunk)."""
@@ -268,6 +317,20 @@ def design_draws(bp: BatchPlant, start: tuple[float, float], *, R0_start: float 
     on_bound = ok & bound & equal & kkt
     fine = (interior | on_bound) & (margin > 0)
     fine[active] = False
+    # a single peak held down by the stability boundary (the ideal loop with a winding capacitance)
+    v = np.where(np.isfinite(pb.value), pb.value, 0.0)
+    single = np.flatnonzero(~fine & ~bound & (np.count_nonzero(v > 0, axis=1) == 1))
+    if single.size:
+        rs_b, u_b, ok_b = _on_boundary(bp, single, lcs[single].copy())
+        k = single[ok_b]
+        if k.size:
+            Rs[k], lcs[k] = rs_b[ok_b], u_b[ok_b]
+            Cs[k] = np.exp(lcs[k])
+            pk = rc_peaks_batch(bp, Rs[k], Cs[k], k)
+            margin[k] = bp.margin(Rs[k], Cs[k], k)
+            pb = PeakBatch(pb.value.copy(), pb.omega.copy(), pb.grad, pb.exact)
+            pb.value[k], pb.omega[k] = pk.value, pk.omega
+            fine[k] = margin[k] > 0
     att = 20 * np.log10(pb.hinf / bp.open_peak)
     fallback = ~fine
     todo = np.flatnonzero(fallback)
