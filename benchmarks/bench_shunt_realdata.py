@@ -12,7 +12,8 @@ seconds (``time.process_time``) beside wall seconds and the load average:
   from the posterior median's design), with the number of draws that fell back to the one-at-a-time
   design;
 * ``--full``: the whole :func:`~bayes_emt.shunt.robust_shunt` call (``shunt --posterior`` after
-  reading the file), its stage timings, P(unstable) of the robust shunt against ``epsilon``.
+  reading the file, default ``epsilon="auto"``), its stage timings, P(unstable) of the robust shunt
+  against the ``epsilon`` chosen and the bound shown on the draws the choice never saw.
 
 Writes one JSON line per file on stdout.
 """
@@ -53,7 +54,7 @@ def per_draw(post, n_draws: int, seed: int = 0) -> dict:
             "R0_q05_q95": np.quantile(g.thetas[:, post.model.params.index("R0")], [0.05, 0.95]).tolist()}
 
 
-def full(post, n_draws: int, epsilon: float = 1e-3) -> dict:
+def full(post, n_draws: int, epsilon="auto") -> dict:
     """The whole robust_shunt call: CPU and wall seconds, the P(unstable) bound, Qts and the peak
     reduction (median and 90 % interval over the held-back draws)."""
     c0, w0 = time.process_time(), time.perf_counter()
@@ -62,7 +63,8 @@ def full(post, n_draws: int, epsilon: float = 1e-3) -> dict:
     return {"full_cpu_s": time.process_time() - c0, "full_wall_s": time.perf_counter() - w0,
             "timing_wall_s": res.report["timing"], "n_fallback": res.report["per_draw"]["n_fallback"],
             "robust_p_unstable": rob["p_unstable"], "robust_p_unstable_ci": rob["p_unstable_ci"],
-            "epsilon": epsilon, "robust_Rs": rob["Rs"], "robust_Cs": rob["Cs"],
+            "epsilon": res.report["epsilon"], "epsilon_choice": res.report["epsilon_choice"],
+            "robust_Rs": rob["Rs"], "robust_Cs": rob["Cs"],
             "robust_p_unstable_bound": {k: rob["p_unstable_bound"][k] for k in ("shown", "draws_needed")}
             | {"per_model": rob["p_unstable_bound"]["per_model"]},
             "driver_qts": res.report["driver"]["qts"], "robust_qts_damped": rob["qts_damped"],

@@ -4,10 +4,11 @@ posterior's R0 interval (issue 31).
 
 The batched Newton (:func:`~bayes_emt.shunt.batch.design.design_draws`) must return each draw's
 H∞-optimal ``(Rs, Cs)`` and attenuation equal to :func:`~bayes_emt.shunt.design_rc_shunt`. Tolerance:
-1e-6 relative on Rs and the attenuation; on Cs 1e-6 for an interior optimum and 2e-5 where the optimum
-lies on the upper bound of Cs (a loudspeaker: Cs of farads), because the one-at-a-time design's
-Nelder–Mead stops within its tolerance of the bound (measured 5e-6 in ln Cs on LS10-44 draws) while the
-batched design lands on it.
+1e-6 relative on Rs and the attenuation (where the optimum sits on the stability boundary, Rs is the
+threshold, 0 with a winding capacitance: there 1e-6 of R0); on Cs 1e-6 for an interior optimum and
+2e-5 where the optimum lies on the upper bound of Cs (a loudspeaker: Cs of farads), because the
+one-at-a-time design's Nelder–Mead stops within its tolerance of the bound (measured 5e-6 in ln Cs on
+LS10-44 draws) while the batched design lands on it.
 
 The loudspeaker is the Dayton LS10-44 woofer's UD posterior median (../shared/realdata, free air,
 fit by ``sample``): ζ 0.1034, ω0 213.76 rad/s (fs 34.0 Hz), φ 58.54 N/(A kg^0.5), R0 8.5616 Ω,
@@ -51,7 +52,11 @@ def _compare(model, thetas, *, max_fallback=0):
     for i, th in enumerate(thetas):
         d = design_rc_shunt(model, th)
         on_bound = d.optimum.startswith("Cs at its upper bound")
-        assert opt.Rs[i] == pytest.approx(d.Rs, rel=1e-6), i
+        if d.optimum == "at the stability boundary":
+            # Rs is the threshold (0 with a winding capacitance): relative to R0, its scale
+            assert abs(opt.Rs[i] - d.Rs) <= 1e-6 * d.R0, i
+        else:
+            assert opt.Rs[i] == pytest.approx(d.Rs, rel=1e-6), i
         assert opt.attenuation_db[i] == pytest.approx(d.attenuation_db, rel=1e-6), i
         assert opt.Cs[i] == pytest.approx(d.Cs, rel=2e-5 if on_bound else 1e-6), i
     return opt
@@ -82,11 +87,11 @@ def test_more_than_two_peaks_no_index_error():
 
 
 #: terms where the batch does not yet equal the one-at-a-time design (measured, 20 draws each)
-KNOWN = {
-    "winding_capacitance": "all 20 draws fall back: with a capacitance across the terminals the ideal loop "
-                           "is unstable for any negative Rs (threshold Rs = 0) and the optimum sits on the "
-                           "stability boundary",
-}
+KNOWN: dict = {}
+# winding_capacitance was an expected failure (all 20 draws fell back): with a capacitance across the
+# terminals the ideal loop is unstable for any negative Rs (threshold 0 at every Cs) and the optimum is
+# a single peak held down by that boundary; the batch now solves it there (Rs on the boundary, ln Cs by
+# secant steps on the peak's derivative along it): Cs within 1e-7, the attenuation within 1e-9 relative
 # suspension_creep and enclosure_port were expected failures (the batch's attenuation -28.76 dB against
 # -10.03 dB, and -24.12 against -11.82 dB): the batch divided by the closed-form open-terminal peak,
 # which a stiffness modifier or a motional load changes; BatchPlant now takes it from the exact search
@@ -157,3 +162,25 @@ def test_undefined_shunt_problem_is_refused_in_one_line(tmp_path, capsys):
     over = np.tile(model.vector({**PAPER_TABLES["I"], "zeta": 0.9}), (4, 1))
     with pytest.raises(ValueError, match="nothing for a shunt to damp"):
         design_robust_shunt([DrawGroup(model, over)])
+
+
+#: posterior median of NL(2)+second_resonance+suspension_creep, the model `diagnose` named for the
+#: LS10-44 added-mass run (../shared/realdata, dayton_LS10-44_added100g_run2.txt, fit by `sample`)
+LS10_44_MASS = {"zeta": 0.010203445840507249, "omega0": 197.66884479471202, "phi": 42.33039836676376,
+                "R0": 7.613927544429413, "Pg": 1.3139268917662793e-08, "P1": 2.6043434901083913e-08,
+                "P2": 2.9332021366685692e-08, "R1": 1.1809226356433666e-05, "R2": 6.317155681215467e-05,
+                "zeta2": 0.06320049827004881, "omega2": 4924.324985035272, "phi2": 46.221985370783955,
+                "lambda_creep": 0.06695593191269548}
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured: 20 of 20 draws fall back. The optimum has three equal "
+                   "peaks (the band's low edge at 4.94 rad/s, 71.1 and 113.9 rad/s, equal to 1e-8); the "
+                   "two-peak Newton alternates between the pair of peaks and the single merged peak "
+                   "(~90 rad/s) a step in ln Cs of ~0.06 makes of them. On the real posteriors: 97 of 100 "
+                   "draws here, 32 of 100 on ScanSpeak 18W's NL(2)+winding_capacitance+suspension_creep"
+                   "+thermal_drift (peaks at 11, 95-110 and 170 rad/s)")
+def test_three_equal_peaks_batched_equals_one_at_a_time():
+    model = build_model("NL(2)+second_resonance+suspension_creep")
+    theta = model.vector(LS10_44_MASS)
+    _compare(model, _draws(model, theta, 20), max_fallback=1)

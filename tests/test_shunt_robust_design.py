@@ -320,3 +320,27 @@ def test_robust_design_says_whether_p_unstable_bound_is_shown():
         assert bool(flagged) is (not shown)
         if flagged:
             assert "needs 2995 such draws" in flagged[0] and "360 NL(5) draws" in flagged[0]
+
+
+def test_auto_epsilon_is_the_smallest_bound_the_unseen_draws_can_show():
+    # the rule: the smallest of the 1-2-5 ladder with N_unseen * ess >= ln(1 - conf)/ln(1 - eps)
+    # (draws_needed: 1e-3 -> 2995, 2e-3 -> 1497, 5e-3 -> 598, 1e-2 -> 299 at 95 %)
+    from bayes_emt.shunt.bound import auto_epsilon, draws_needed
+
+    assert [draws_needed(e) for e in (2e-3, 5e-3)] == [1497, 598]
+    assert auto_epsilon({"A": 2995})[0] == 1e-3
+    assert auto_epsilon({"A": 2994})[0] == 2e-3
+    assert auto_epsilon({"A": 1480})[0] == 5e-3  # a 2000-draw posterior, 1000 used, 520 designed on
+    assert auto_epsilon({"A": 5000, "B": 600})[0] == 5e-3  # every model must show it
+    assert auto_epsilon({"A": 2995}, ess_fraction=0.5)[0] == 2e-3
+    eps, rec = auto_epsilon({"A": 0})  # draws repeated: nothing unseen
+    assert eps == 1e-3 and rec["showable"] is False
+    # a default run then shows its bound: 400 kept draws, 80 used (40 designed on), 360 unseen
+    m, th = scattered("NL", 400, 3e-3, seed=7)
+    groups, _ = sample_mixture([(m, th, "NL draws")], [1.0], 80, seed=0)
+    eps, rec = auto_epsilon({"NL(5)": groups[0].available - 40})
+    assert eps == 1e-2 and rec["draws_needed"] == 299
+    res = design_robust_shunt(groups, epsilon=eps, seed=0)
+    b = res.report["robust"]["p_unstable_bound"]
+    assert b["per_model"]["NL(5)"]["n_checked"] == 360 and b["shown"]
+    assert not [w for w in res.warnings if w.startswith("[p_unstable_not_shown]")]

@@ -23,7 +23,10 @@ import math
 import numpy as np
 from scipy import stats
 
-__all__ = ["upper_bound", "draws_needed", "instability_bound"]
+__all__ = ["upper_bound", "draws_needed", "instability_bound", "auto_epsilon", "EPSILON_LADDER"]
+
+#: the bounds ``epsilon="auto"`` chooses from (a 1-2-5 ladder)
+EPSILON_LADDER = (1e-3, 2e-3, 5e-3, 1e-2, 2e-2, 5e-2, 0.1)
 
 
 def upper_bound(k: float, n: float, confidence: float = 0.95) -> float:
@@ -67,3 +70,23 @@ def instability_bound(stable_per_model: dict, epsilon: float, confidence: float 
                       "scaled by the ESS per draw",
             "confidence": confidence, "epsilon": epsilon, "ess_fraction": ess_fraction,
             "draws_needed": need, "shown": bool(shown and per), "per_model": per}
+
+
+def auto_epsilon(unseen: dict, confidence: float = 0.95, ess_fraction: float = 1.0) -> tuple[float, dict]:
+    """The smallest bound of :data:`EPSILON_LADDER` a run can show: ``unseen`` maps each model label
+    to the number of its kept draws the robust choice will not see (the held-back half and the kept
+    draws the mixture did not pick). Rule: the smallest ``ε`` with
+    ``N_unseen · ess ≥ ln(1 − confidence) / ln(1 − ε)`` for every model, i.e. none unstable among
+    them shows ``P(unstable) ≤ ε`` (module docstring); where no model has enough (or draws were
+    repeated, ``N_unseen ≤ 0``) the ladder's first value, and the record says the bound cannot be
+    shown. Returns ``(ε, record)``."""
+    n = min(unseen.values()) if unseen else 0
+    need = {e: draws_needed(e, confidence, ess_fraction) for e in EPSILON_LADDER}
+    fit = [e for e in EPSILON_LADDER if n > 0 and need[e] <= n]
+    eps = fit[0] if fit else EPSILON_LADDER[0]
+    rule = (f"epsilon auto: the smallest of {', '.join(f'{e:g}' for e in EPSILON_LADDER)} that the draws "
+            f"the choice never sees can show (none unstable among N_unseen x ESS fraction >= "
+            f"ln(1 - confidence)/ln(1 - epsilon), one-sided exact binomial at {confidence:.0%})")
+    rec = {"rule": rule, "epsilon": eps, "unseen_draws": {k: int(v) for k, v in unseen.items()},
+           "ess_fraction": ess_fraction, "draws_needed": need[eps], "showable": bool(fit)}
+    return eps, rec

@@ -26,7 +26,8 @@ import numpy as np
 from .._json import strict_json
 from .._record import register_kind
 from ..errors import DataFormatError
-from .draws import mixture_weights, sample_mixture
+from .bound import auto_epsilon
+from .draws import mixture_weights, sample_mixture, split_halves
 from .r0_spread import widen_r0
 from .records import html_table, read_json_record, table
 from .robust import RobustShunt, design_robust_shunt
@@ -214,7 +215,7 @@ def read_robust_shunt(path) -> RobustShuntResult:
 
 def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
                  log_z: Sequence[float] | Mapping[str, float] | None = None, n_draws: int = 1000,
-                 seed: int = 0, risk: str = "cvar", alpha: float = 0.9, epsilon: float = 1e-3,
+                 seed: int = 0, risk: str = "cvar", alpha: float = 0.9, epsilon: float | str = "auto",
                  confidence: float = 0.95, nominal=None, sampled=None,
                  ohmmeter_tolerance: float | None = None, sources: Sequence[str] | None = None,
                  boundary_points: int = 0,
@@ -228,7 +229,12 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
     weights : ``"evidence"`` (needs ``log_z`` when several), ``"equal"``, or numbers (normalised).
     log_z : log evidences [nats]: a list in the posteriors' order, or a mapping model label → log Z.
     n_draws : draws of the mixture (≥ 2). seed : the draw choice and the design/held-back split.
-    risk, alpha, epsilon, confidence : as :func:`~bayes_emt.shunt.robust.design_robust_shunt`.
+    risk, alpha, epsilon, confidence : as :func:`~bayes_emt.shunt.robust.design_robust_shunt`;
+        ``epsilon="auto"`` (default): the smallest bound of
+        :data:`~bayes_emt.shunt.bound.EPSILON_LADDER` the draws the choice never sees can show
+        (:func:`~bayes_emt.shunt.bound.auto_epsilon`; the rule and the counts are in
+        ``report["epsilon_choice"]``). With 1000 draws from a posterior keeping ~2000, about 1500
+        draws stay unseen: 1e-3 needs 2995, so ``auto`` takes 2e-3 (1497 needed) or 5e-3.
     nominal : the point estimate of the nominal design: a fit (anything with ``model`` and
         ``theta``) or ``(model, theta, description)``; default the heaviest model's posterior median.
     sampled : a :class:`~bayes_emt.shunt.batch.plant.SampledShunt` (digital realisation) entering
@@ -274,6 +280,14 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
             notes.append("R0 is the posterior's alone (if the model were exact): the recording has no "
                          "rows below the fitted band to read a second Re from; an ohmmeter reading "
                          "(--ohmmeter-tolerance) is compared with the margins when given")
+    eps_choice = None
+    if isinstance(epsilon, str):
+        if epsilon != "auto":
+            raise ValueError(f'epsilon must be a number in [0, 1) or "auto", got {epsilon!r}')
+        halves = split_halves([g for g in groups if g.n > 0], seed=seed)
+        unseen = {g.label: (g.available - d.size if g.available >= g.n else 0)
+                  for g, (d, _) in zip([g for g in groups if g.n > 0], halves, strict=True)}
+        epsilon, eps_choice = auto_epsilon(unseen, confidence, ess)
     if nominal is not None and not isinstance(nominal, tuple):
         nominal = (nominal.model, np.asarray(nominal.theta, float), f"fit ({nominal.model.label})")
 
@@ -285,7 +299,9 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
                               boundary_points=boundary_points, notes=notes + warns,
                               ohmmeter_tolerance=ohmmeter_tolerance, progress=tell if progress else None,
                               time_budget=time_budget, r0_spread=spreads)
-    return RobustShuntResult.from_robust(res)
+    out = RobustShuntResult.from_robust(res)
+    out.report["epsilon_choice"] = eps_choice or {"rule": "epsilon as given", "epsilon": epsilon}
+    return out
 
 
 register_kind(RobustShuntResult)

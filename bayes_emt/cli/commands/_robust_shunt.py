@@ -94,7 +94,7 @@ def run_posterior(args, sampled) -> int:
                          "--posterior files: give one per posterior, in the same order")
     if not (0 < args.alpha < 1):
         raise ValueError(f"--alpha must be in (0, 1), got {args.alpha}")
-    if not (0 <= args.epsilon < 1):
+    if args.epsilon != "auto" and not (0 <= args.epsilon < 1):
         raise ValueError(f"--epsilon must be in [0, 1), got {args.epsilon}")
     if not (0 < args.confidence < 1):
         raise ValueError(f"--confidence must be in (0, 1), got {args.confidence}")
@@ -123,8 +123,14 @@ def run_posterior(args, sampled) -> int:
     mix = ", ".join(f"{g['label']} {100 * g['weight']:.3g} % ({g['n_draws']} draws)" for g in rep["models"])
     risk = f"CVaR_{args.alpha:g}" if args.risk == "cvar" else args.risk
     print(f"robust RC shunt over {rep['n_draws']} posterior draws [{mix}]: {risk} of the attenuation, "
-          f"P(unstable) <= {args.epsilon:g} per model; chosen on {rep['n_design']} draws, reported on the "
+          f"P(unstable) <= {rep['epsilon']:g} per model; chosen on {rep['n_design']} draws, reported on the "
           f"{rep['n_held_back']} held back")
+    ec = rep.get("epsilon_choice") or {}
+    if args.epsilon == "auto" and ec.get("unseen_draws") is not None:
+        unseen = ", ".join(f"{k} {v}" for k, v in ec["unseen_draws"].items())
+        tail = (f"epsilon = {ec['epsilon']:g} needs {ec['draws_needed']}" if ec["showable"] else
+                f"too few to show even {ec['epsilon']:g} ({ec['draws_needed']} needed)")
+        print(f"  {ec['rule']}: unseen draws {unseen}; {tail}")
     if sampled is not None:
         print(f"  stability of every draw includes the sampled-data controller: fs = {sampled.fs:g} Hz, "
               f"delay {sampled.delay_samples} sample(s), R_in = {sampled.R_in:g} ohm, "
@@ -165,7 +171,7 @@ def run_posterior(args, sampled) -> int:
         need = ("no finite number" if b["draws_needed"] is None else
                 f"{b['draws_needed']} unseen draws, none unstable")
         verdict = "SHOWN" if b["shown"] else "NOT shown"
-        print(f"robust: P(unstable) <= {args.epsilon:g} {verdict} on the draws the choice never saw ({pm}; "
+        print(f"robust: P(unstable) <= {rep['epsilon']:g} {verdict} on the draws the choice never saw ({pm}; "
               f"{args.confidence:.0%} one-sided exact binomial bound; showing it needs {need})")
     pd = rep["per_draw"]
     print(f"each draw's own optimum (median, 90 % interval): Rs {_fmt_att(pd['Rs'], '.5f')} ohm, "

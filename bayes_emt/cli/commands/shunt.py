@@ -42,6 +42,11 @@ bayes-emt shunt --posterior nl.nc --posterior ud.nc --compare compare.json --plo
 TABLE7 = {"r_in": 0.0996, "k_in": 99.23, "k_out": 0.9846, "fs": 5000.0}
 
 
+
+def _epsilon(text: str):
+    """``--epsilon``: a number, or ``auto``."""
+    return "auto" if text.strip().lower() == "auto" else finite_float(text)
+
 def register(sub) -> None:
     p = add_parser(sub, "shunt", help="optimal RC shunt for a parameter file, or robust over posteriors "
                    "(H∞-optimal)", description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
@@ -54,8 +59,10 @@ def register(sub) -> None:
                    help="risk measure of the attenuation over draws (default cvar)")
     p.add_argument("--alpha", type=finite_float, default=0.9,
                    help="CVaR level (default 0.9: the worst 10 %%)")
-    p.add_argument("--epsilon", type=finite_float, default=1e-3,
-                   help="bound on P(unstable) per model (default 1e-3)")
+    p.add_argument("--epsilon", type=_epsilon, default="auto",
+                   help="bound on P(unstable) per model, or 'auto' (default): the smallest of 0.001, "
+                        "0.002, 0.005, 0.01, ... that the posterior draws the choice never sees can show "
+                        "(none unstable among N >= ln(1 - confidence)/ln(1 - epsilon) of them)")
     p.add_argument("--draws", type=int_at_least(2), default=1000, help="posterior draws used (default 1000)")
     p.add_argument("--seed", type=seed, default=0,
                    help="seed of the draw choice and the half split (default 0)")
