@@ -11,7 +11,8 @@ each, and scores: the right physics ids (every true effect named, nothing else),
 band overlapping the true band (where the effect changes ``Y`` by more than the noise), the time.
 Null cases must give no finding; ``--null-seeds`` more null recordings give the false-finding
 rate. The instrument-step recall cases (:func:`step_cases`, NL(5) and UD plants, phase steps 5-25
-times the noise) are among the cases; ``scripts/discovery_artifact_recall.py`` scores them alone.
+times the noise, magnitude steps 1-3 times) are among the cases; ``scripts/discovery_artifact_recall.py``
+scores them alone.
 Each case's result is written as it finishes (``cases/NAME.json``) and reused on a re-run
 (resume); the score table is ``scores.md`` and ``scores.json`` in ``--out``.
 """
@@ -185,11 +186,13 @@ def cases() -> list[dict]:
 
 
 #: the instrument-step recall cases (issue 35): NL(5) and UD plants at 0.2 % noise, a range switch at
-#: 3000 rad/s, phase steps 5, 10 and 25 times the noise with magnitude steps 1 or 3 times (each phase
-#: level with both magnitudes across the two plants), two seeds each: 12 cases, 8 with a phase step
-#: of at least 10 times the noise; the diagnosis starts from the plant's base model
+#: 3000 rad/s, every phase step of 5, 10 and 25 times the noise with every magnitude step of 1 and 3
+#: times, and on NL(5) the switch of the issue (0.4 % in magnitude, 0.05 rad in phase: 2x and 25x),
+#: two seeds each: 14 cases x 2 seeds = 28 recordings, 20 with a phase step of at least 10 times the
+#: noise; the diagnosis starts from the plant's base model
 STEP_NOISE = 0.002
-STEP_LEVELS = {"NL": ((5, 1), (10, 3), (25, 1)), "UD": ((5, 3), (10, 1), (25, 3))}
+STEP_LEVELS = {"NL": ((5, 1), (5, 3), (10, 1), (10, 3), (25, 1), (25, 3), (25, 2)),
+               "UD": ((5, 1), (5, 3), (10, 1), (10, 3), (25, 1), (25, 3))}
 STEP_SEEDS = (1, 2)
 
 
