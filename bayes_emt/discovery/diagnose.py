@@ -33,6 +33,7 @@ from ..estimation.checks import locate_resonance
 from ..estimation.fitting import fit_admittance, fit_reusing
 from ..estimation.results import FitResult
 from ..evidence.fit_evidence import fit_log_evidence
+from ..evidence.step_intervals import STEP_METHOD
 from ..measurement import Measurement
 from ..models import EDDY_PHYSICS, Model, parse_model_spec
 from ..models.derived import mechanical_resonance
@@ -948,7 +949,7 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
                 where["shape"],
             )
         )
-        if c.evidence_method != "laplace":
+        if c.evidence_method not in ("laplace", STEP_METHOD):
             warn.append(
                 f"{c.physics}: its delta_log_evidence is not the Laplace screen's (which failed) but "
                 f"the fallback '{c.evidence_method}' ({c.evidence_note})"
