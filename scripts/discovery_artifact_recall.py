@@ -63,6 +63,9 @@ def main(argv=None) -> int:
     ap.add_argument("--only", nargs="*", default=None, help="run only these cases (the table: every case "
                     "already finished)")
     ap.add_argument("--part", default="1/1", help="i/n: run every n-th case starting at the i-th")
+    ap.add_argument("--time-budget", type=float, default=0.0,
+                    help="the diagnosis's wall-clock budget [s] (default 0: none, so that the machine's load "
+                         "cannot cut a search)")
     ap.add_argument("--report-only", action="store_true", help="tabulate the finished cases, run nothing")
     a = ap.parse_args(argv)
     try:
@@ -72,6 +75,7 @@ def main(argv=None) -> int:
     except ValueError:
         ap.error(f"--part {a.part!r}: give i/n with 1 <= i <= n")
     bench.WORKERS = a.workers
+    bench.TIME_BUDGET = a.time_budget
     out = Path(a.out)
     recs = []
     # the issue's own switch first, then the acceptance's cases (phase step >= 10x the noise, largest

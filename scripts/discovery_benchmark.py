@@ -253,6 +253,8 @@ def overlaps(a, b) -> bool:
 
 #: the diagnosis's worker processes (``--workers``; None: its default)
 WORKERS = None
+#: the diagnosis's wall-clock budget [s] (None: its default; 0: none, the same result at any load)
+TIME_BUDGET = None
 
 
 def run_case(c, out: Path) -> dict:
@@ -262,7 +264,8 @@ def run_case(c, out: Path) -> dict:
     model, vals, meas = simulate_case(c)
     start = parse_model_spec("NL(5)" if c["start"] == "NL" else c["start"])
     t, cpu = time.perf_counter(), time.process_time()
-    d = diagnose(meas, start, seed=0, workers=WORKERS)
+    budget = {} if TIME_BUDGET is None else {"time_budget": TIME_BUDGET}
+    d = diagnose(meas, start, seed=0, workers=WORKERS, **budget)
     seconds, cpu = time.perf_counter() - t, time.process_time() - cpu
     # a joint finding "a+b" names both terms
     found = [p for f in d.findings for p in f.physics.split("+")]
