@@ -420,6 +420,8 @@ def main(argv=None) -> int:
     ap.add_argument("--only", nargs="*", default=None)
     ap.add_argument("--null-seeds", type=int, default=20)
     ap.add_argument("--workers", type=int, default=None, help="the diagnosis's worker processes")
+    ap.add_argument("--time-budget", type=float, default=None,
+                    help="the diagnosis's wall-clock budget [s] (default: its own; 0: none)")
     ap.add_argument("--nulls-only", action="store_true", help="run only the null seeds")
     ap.add_argument("--forced-band-nulls", type=int, default=0, metavar="N",
                     help="also rank every candidate on N null recordings with a band forced over the whole "
@@ -427,8 +429,8 @@ def main(argv=None) -> int:
     ap.add_argument("--report-only", action="store_true",
                     help="score the cases already finished in --out (run nothing new)")
     a = ap.parse_args(argv)
-    global WORKERS
-    WORKERS = a.workers
+    global WORKERS, TIME_BUDGET
+    WORKERS, TIME_BUDGET = a.workers, a.time_budget
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     if a.forced_band_nulls:
