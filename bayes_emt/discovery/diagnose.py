@@ -88,8 +88,8 @@ class Finding:
     """One accepted explanation: the physics id, the band it explains, ``Δ log Z`` [nats], the band's
     χ² before and after, whether the data determine it, the parameters it adds and those that moved,
     the model after it, a plain-words verdict, and how its evidence was obtained
-    (``evidence_method``: ``"laplace"``, or the fallback ``"laplace_subspace"`` of :mod:`.evidence`,
-    which a warning then names)."""
+    (``evidence_method``: ``"laplace"``, ``"laplace_step"`` for a step term, or the fallback
+    ``"laplace_subspace"`` of :mod:`.evidence`, which a warning then names)."""
 
     physics: str
     band: Band

@@ -83,7 +83,8 @@ class Candidate:
     """One tried explanation of a band.
 
     ``physics`` the catalogue id; ``fit`` its least-squares fit; ``log_z`` its Laplace log evidence
-    [nats] (``evidence_method`` ``"laplace"``, or ``"laplace_subspace"``: the fallback of
+    [nats] (``evidence_method`` ``"laplace"``; ``"laplace_step"`` for a step term, its frequency
+    summed over the intervals between points; or ``"laplace_subspace"``: the fallback of
     :mod:`.evidence`, ``evidence_note`` why and what it did); ``delta_log_z`` against the current
     model; ``chi2_band_before``/``after`` the band's
     χ²; ``identifiable`` and ``identifiability`` (why); ``n_band`` the band's residual count
