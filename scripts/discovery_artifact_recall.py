@@ -8,7 +8,7 @@ One command::
 Runs the concealed benchmark's step cases (:func:`discovery_benchmark.step_cases`: NL(5) and UD
 plants, 0.2 % noise, 500 points over 10-1e5 rad/s, a range switch at 3000 rad/s with every phase
 step of 5, 10 and 25 times the noise and every magnitude step of 1 and 3 times, plus the issue's own
-switch on NL(5), 0.4 % and 0.05 rad; two seeds each: 28 recordings), each diagnosed from its
+switch on NL(5), 0.4 % and 0.05 rad; two seeds each: 26 recordings), each diagnosed from its
 plant's base model (:func:`bayes_emt.discovery.diagnose`, ``seed=0``), and scores the fraction
 named ``measurement_artifact`` overall and among the cases whose phase step is at least 10 times
 the noise (the acceptance asks >= 90 % there). Beside each case it records what decided about the

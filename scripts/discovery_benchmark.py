@@ -188,7 +188,7 @@ def cases() -> list[dict]:
 #: the instrument-step recall cases (issue 35): NL(5) and UD plants at 0.2 % noise, a range switch at
 #: 3000 rad/s, every phase step of 5, 10 and 25 times the noise with every magnitude step of 1 and 3
 #: times, and on NL(5) the switch of the issue (0.4 % in magnitude, 0.05 rad in phase: 2x and 25x),
-#: two seeds each: 14 cases x 2 seeds = 28 recordings, 20 with a phase step of at least 10 times the
+#: two seeds each: 13 cases x 2 seeds = 26 recordings, 18 with a phase step of at least 10 times the
 #: noise; the diagnosis starts from the plant's base model
 STEP_NOISE = 0.002
 STEP_LEVELS = {"NL": ((5, 1), (5, 3), (10, 1), (10, 3), (25, 1), (25, 3), (25, 2)),
