@@ -11,7 +11,8 @@ each, and scores: the right physics ids (every true effect named, nothing else),
 band overlapping the true band (where the effect changes ``Y`` by more than the noise), the time.
 Null cases must give no finding; ``--null-seeds`` more null recordings give the false-finding
 rate. The instrument-step recall cases (:func:`step_cases`, NL(5) and UD plants, phase steps 5-25
-times the noise) are among the cases; ``scripts/discovery_artifact_recall.py`` scores them alone.
+times the noise, magnitude steps 1-3 times) are among the cases; ``scripts/discovery_artifact_recall.py``
+scores them alone.
 Each case's result is written as it finishes (``cases/NAME.json``) and reused on a re-run
 (resume); the score table is ``scores.md`` and ``scores.json`` in ``--out``.
 """
@@ -185,11 +186,13 @@ def cases() -> list[dict]:
 
 
 #: the instrument-step recall cases (issue 35): NL(5) and UD plants at 0.2 % noise, a range switch at
-#: 3000 rad/s, phase steps 5, 10 and 25 times the noise with magnitude steps 1 or 3 times (each phase
-#: level with both magnitudes across the two plants), two seeds each: 12 cases, 8 with a phase step
-#: of at least 10 times the noise; the diagnosis starts from the plant's base model
+#: 3000 rad/s, every phase step of 5, 10 and 25 times the noise with every magnitude step of 1 and 3
+#: times, and on NL(5) the switch of the issue (0.4 % in magnitude, 0.05 rad in phase: 2x and 25x),
+#: two seeds each: 13 cases x 2 seeds = 26 recordings, 18 with a phase step of at least 10 times the
+#: noise; the diagnosis starts from the plant's base model
 STEP_NOISE = 0.002
-STEP_LEVELS = {"NL": ((5, 1), (10, 3), (25, 1)), "UD": ((5, 3), (10, 1), (25, 3))}
+STEP_LEVELS = {"NL": ((5, 1), (5, 3), (10, 1), (10, 3), (25, 1), (25, 3), (25, 2)),
+               "UD": ((5, 1), (5, 3), (10, 1), (10, 3), (25, 1), (25, 3))}
 STEP_SEEDS = (1, 2)
 
 
@@ -250,6 +253,8 @@ def overlaps(a, b) -> bool:
 
 #: the diagnosis's worker processes (``--workers``; None: its default)
 WORKERS = None
+#: the diagnosis's wall-clock budget [s] (None: its default; 0: none, the same result at any load)
+TIME_BUDGET = None
 
 
 def run_case(c, out: Path) -> dict:
@@ -259,7 +264,8 @@ def run_case(c, out: Path) -> dict:
     model, vals, meas = simulate_case(c)
     start = parse_model_spec("NL(5)" if c["start"] == "NL" else c["start"])
     t, cpu = time.perf_counter(), time.process_time()
-    d = diagnose(meas, start, seed=0, workers=WORKERS)
+    budget = {} if TIME_BUDGET is None else {"time_budget": TIME_BUDGET}
+    d = diagnose(meas, start, seed=0, workers=WORKERS, **budget)
     seconds, cpu = time.perf_counter() - t, time.process_time() - cpu
     # a joint finding "a+b" names both terms
     found = [p for f in d.findings for p in f.physics.split("+")]
@@ -414,6 +420,8 @@ def main(argv=None) -> int:
     ap.add_argument("--only", nargs="*", default=None)
     ap.add_argument("--null-seeds", type=int, default=20)
     ap.add_argument("--workers", type=int, default=None, help="the diagnosis's worker processes")
+    ap.add_argument("--time-budget", type=float, default=None,
+                    help="the diagnosis's wall-clock budget [s] (default: its own; 0: none)")
     ap.add_argument("--nulls-only", action="store_true", help="run only the null seeds")
     ap.add_argument("--forced-band-nulls", type=int, default=0, metavar="N",
                     help="also rank every candidate on N null recordings with a band forced over the whole "
@@ -421,8 +429,8 @@ def main(argv=None) -> int:
     ap.add_argument("--report-only", action="store_true",
                     help="score the cases already finished in --out (run nothing new)")
     a = ap.parse_args(argv)
-    global WORKERS
-    WORKERS = a.workers
+    global WORKERS, TIME_BUDGET
+    WORKERS, TIME_BUDGET = a.workers, a.time_budget
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     if a.forced_band_nulls:

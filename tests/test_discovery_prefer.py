@@ -326,3 +326,30 @@ def test_lookalike_creep_under_a_semi_inductance_coil_names_the_physics_not_a_co
     added = {k: v for f in d.findings for k, v in f.parameters["added"].items()}
     for name in ("n_semi", "lambda_creep"):
         assert abs(added[name]["value"] - vals[name]) < 5 * added[name]["stderr"]
+
+
+def test_a_clear_instrument_step_is_named_its_margin_judged_on_the_residual_it_leaves():
+    """A range switch at 3000 rad/s on a UD plant, phase step 10x the 0.2 % noise, magnitude step 1x
+    (the smallest phase step the recall acceptance counts): the step test passes, and the step beats
+    the best physical candidate (winding capacitance) by its margin. The margin's ℓ is taken from the
+    residual the step *leaves* (white: ℓ ≈ 1), not from the residual before it, which the
+    unexplained step itself correlates (ℓ > 5 here): a margin grown with the very evidence for the
+    step would ask more of a step the clearer it is."""
+    art = parse_model_spec("UD+measurement_artifact")
+    vals = {**PAPER_TABLES["UD"], "omegas": 3000.0, "delta_s": 0.002, "psi_s": 0.02}
+    meas = simulate(art, vals, GRID, noise=0.002, seed=1)
+    base = fit_admittance(meas, parse_model_spec("UD"))
+    step = fit_admittance(meas, art, initial=vals, warm=True)
+    cp = fit_admittance(meas, parse_model_spec("UD+winding_capacitance"),
+                        initial={**base.parameters, "Cp": 1e-9}, warm=True)
+    lz0, lz_step, lz_cp = (log_evidence(meas, f) for f in (base, step, cp))
+    assert step_evidence(meas, base, step, "measurement_artifact") is None
+    where = change_band(meas, cp, step, 1.0)
+    assert residual_correlation(meas, base, where["i_lo"], where["i_hi"]) > 5.0
+    assert residual_correlation(meas, step, where["i_lo"], where["i_hi"]) < 1.5
+    patch = _cand("measurement_artifact", lz_step - lz0, patch=True, n_added=3, fit=step)
+    phys = _cand("winding_capacitance", lz_cp - lz0, n_added=1, fit=cp)
+    margin, how = patch_margin(patch, phys, meas)
+    assert margin < 1.5 * PATCH_MARGIN, how
+    pick, notes = choose([patch, phys], meas)
+    assert pick is patch and "beats the best physical term" in notes[0]

@@ -33,6 +33,7 @@ from ..estimation.checks import locate_resonance
 from ..estimation.fitting import fit_admittance, fit_reusing
 from ..estimation.results import FitResult
 from ..evidence.fit_evidence import fit_log_evidence
+from ..evidence.step_intervals import STEP_METHOD
 from ..measurement import Measurement
 from ..models import EDDY_PHYSICS, Model, parse_model_spec
 from ..models.derived import mechanical_resonance
@@ -87,8 +88,8 @@ class Finding:
     """One accepted explanation: the physics id, the band it explains, ``Δ log Z`` [nats], the band's
     χ² before and after, whether the data determine it, the parameters it adds and those that moved,
     the model after it, a plain-words verdict, and how its evidence was obtained
-    (``evidence_method``: ``"laplace"``, or the fallback ``"laplace_subspace"`` of :mod:`.evidence`,
-    which a warning then names)."""
+    (``evidence_method``: ``"laplace"``, ``"laplace_step"`` for a step term, or the fallback
+    ``"laplace_subspace"`` of :mod:`.evidence`, which a warning then names)."""
 
     physics: str
     band: Band
@@ -948,7 +949,7 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
                 where["shape"],
             )
         )
-        if c.evidence_method != "laplace":
+        if c.evidence_method not in ("laplace", STEP_METHOD):
             warn.append(
                 f"{c.physics}: its delta_log_evidence is not the Laplace screen's (which failed) but "
                 f"the fallback '{c.evidence_method}' ({c.evidence_note})"

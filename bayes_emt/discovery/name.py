@@ -43,7 +43,7 @@ from scipy import optimize
 
 from ..errors import FitError
 from ..estimation.augment import augmentation_starts
-from ..estimation.fitting import fit_admittance, fit_reusing
+from ..estimation.fitting import covariance_z, fit_admittance, fit_reusing
 from ..estimation.results import FitResult
 from ..evidence.fit_evidence import Evidence, fit_log_evidence
 from ..evidence.scale import verbal
@@ -83,7 +83,8 @@ class Candidate:
     """One tried explanation of a band.
 
     ``physics`` the catalogue id; ``fit`` its least-squares fit; ``log_z`` its Laplace log evidence
-    [nats] (``evidence_method`` ``"laplace"``, or ``"laplace_subspace"``: the fallback of
+    [nats] (``evidence_method`` ``"laplace"``; ``"laplace_step"`` for a step term, its frequency
+    summed over the intervals between points; or ``"laplace_subspace"``: the fallback of
     :mod:`.evidence`, ``evidence_note`` why and what it did); ``delta_log_z`` against the current
     model; ``chi2_band_before``/``after`` the band's
     χ²; ``identifiable`` and ``identifiability`` (why); ``n_band`` the band's residual count
@@ -196,8 +197,38 @@ def band_scan(meas: Measurement, model: Model, theta, band: Band, sigma_rel: flo
     return best if math.isfinite(best) else float("inf")
 
 
+def _held_step_sd(meas: Measurement, fit: FitResult, steps: set) -> dict | None:
+    """Standard deviations in sampling space of ``fit``'s parameters other than its step frequencies,
+    from the relative-residual Jacobian with those held (``s² (JᵀJ)⁻¹``, central differences): the
+    fit's own covariance is ``None`` because a step frequency's column is zero between two points.
+    ``None`` when the rest is rank-deficient too."""
+    model = fit.model
+    z = np.asarray(model.params.to_z(fit.theta), float)
+    free = [i for i, n in enumerate(model.names) if n not in steps]
+
+    def res(zz):
+        with np.errstate(all="ignore"):
+            r = relative_residual(model, model.params.from_z(zz), meas)
+        return np.r_[r.real, r.imag]
+
+    r0 = res(z)
+    J = np.empty((r0.size, len(free)))
+    for c, i in enumerate(free):
+        h = 1e-6 * max(1.0, abs(z[i]))
+        zp, zm = z.copy(), z.copy()
+        zp[i] += h
+        zm[i] -= h
+        J[:, c] = (res(zp) - res(zm)) / (2 * h)
+    if not (np.all(np.isfinite(J)) and np.all(np.isfinite(r0))):
+        return None
+    cov = covariance_z(J, r0, len(free))
+    if cov is None:
+        return None
+    return {model.names[i]: float(np.sqrt(max(cov[c, c], 0.0))) for c, i in enumerate(free)}
+
+
 def _identifiable(fit: FitResult, new_names: list[str], physics: str,
-                  ev: Evidence | None = None) -> tuple[bool, str, dict]:
+                  ev: Evidence | None = None, meas: Measurement | None = None) -> tuple[bool, str, dict]:
     model = fit.model
     se = fit.stderr
     added = {n: (float(v), float(se[n])) for n, v in model.as_dict(fit.theta).items() if n in new_names}
@@ -222,7 +253,15 @@ def _identifiable(fit: FitResult, new_names: list[str], physics: str,
             "the fit's Jacobian is rank-deficient: the data do not determine the new parameters",
             added,
         )
-    if fit.cov_z is None:  # the step's own column is zero: the posterior's flat directions decided
+    if fit.cov_z is None:  # the step's own column is zero: the rest judged with the step held there
+        sd = None if meas is None else _held_step_sd(meas, fit, steps)
+        if sd is None and meas is not None:
+            return (False, "the fit's Jacobian is rank-deficient with the step held: the data do not "
+                    "determine the new parameters", added)
+        bad = [n for n in new_names if sd is not None and sd.get(n, 0.0) > MAX_REL_SE]
+        if bad:
+            return (False, f"not determined by the data: {', '.join(bad)} (relative sd > {MAX_REL_SE:g})",
+                    added)
         return True, "the step lies between two adjacent points; its size is determined by the data", added
     sd_z = np.sqrt(np.clip(np.diag(fit.cov_z), 0, None))
     bad = [n for n in new_names if sd_z[model.names.index(n)] > MAX_REL_SE]
@@ -601,7 +640,7 @@ def _candidates(meas, current, band, sigma_rel, physics, res, dt, current_log_z,
             continue
         after = band_chi2(meas, fit.model, fit.theta, band, sigma_rel)
         new_names = [n for n in fit.model.names if n not in current.model.names]
-        ident, why, added = _identifiable(fit, new_names, physics, ev)
+        ident, why, added = _identifiable(fit, new_names, physics, ev, meas)
         values = fit.model.as_dict(fit.theta)
         ids = physics.split("+")
         bad = next(

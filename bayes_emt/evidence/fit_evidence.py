@@ -67,6 +67,7 @@ from ..inference.start import extra_noise_start, floor_noise_start, posterior_mo
 from ..measurement import Measurement
 from ..params import clip_inside
 from .laplace import affine_map, hessian_fd, laplace_evidence
+from .step_intervals import STEP_METHOD, step_interval_evidence, step_parameter
 from .warp import Warp
 
 __all__ = ["Evidence", "fit_log_evidence", "fit_start", "subspace_laplace", "slice_log_integral", "TAU"]
@@ -106,7 +107,9 @@ class Evidence:
 
     @property
     def fallback(self) -> bool:
-        return self.method != "laplace"
+        """Whether the number is the subspace fallback's (or none), not a Laplace screen's (a step
+        model's interval sum, :mod:`.step_intervals`, is Laplace in each interval)."""
+        return self.method not in ("laplace", STEP_METHOD)
 
     def to_json_dict(self) -> dict:
         """The comparison's ``by_method["laplace"]`` record."""
@@ -350,10 +353,18 @@ def fit_log_evidence(meas: Measurement, fit, *, lik: Likelihood | None = None) -
     (default likelihood: Gaussian with sampled noise scales; ``lik`` for another), started by
     :func:`fit_start` (the fit's covariance to whiten, the noise coordinates warped); when the
     screen fails, :func:`subspace_laplace` at the screen's mode (module docstring), flagged by
-    :attr:`Evidence.method`."""
+    :attr:`Evidence.method`. A model holding one instrument step has its step frequency marginalised
+    over the intervals between measured points (:mod:`.step_intervals`, method ``"laplace_step"``)
+    first; the screen and its fallback only when that fails."""
     lik = Likelihood(fit.model, meas) if lik is None else lik
     k = lik.model.ndim
     z0, scale, warp = fit_start(lik, fit)
+    step = step_parameter(lik.model)
+    if step is not None:
+        got = step_interval_evidence(meas, lik, blocked(lik.log_posterior_z),
+                                     float(fit.model.as_dict(fit.theta)[step]), z0, scale, warp, step)
+        if got is not None:
+            return Evidence(got[0], STEP_METHOD, got[1], ((step,),))
     mode = z0
     try:
         with warnings.catch_warnings():
