@@ -29,6 +29,8 @@ from pathlib import Path
 
 from ..paths import check_outputs
 from ._common import add_output_args, add_parser, int_at_least, print_table, print_warning_lines, seed
+from ._demo_budget import MIN_STEP_S, SHARES, Budget, budget_split
+from ._demo_budget import budget_seconds as _budget_seconds
 
 EXAMPLES = """\
 bayes-emt demo --quick  (about 2 min: fewer models, short chains; the report says what it cut)
@@ -42,9 +44,11 @@ FULL = {"models": ("I", "II", "III", "UD", "NL", "UL"), "hankel": True,
         "loo": True, "bridge_seeds": 2}
 QUICK = {"models": ("I", "II", "NL"), "hankel": False, "methods": ("laplace", "bridge"), "max_steps": 300,
          "screen_steps": 0, "draws": 200, "loo": False, "bridge_seeds": 1}
-#: wall seconds the robust shunt's choice may take in a demo run (the rest of the chain and the
-#: report are written whatever it does)
+#: wall seconds the robust shunt's choice may take in a demo run without a time budget (the rest of
+#: the chain and the report are written whatever it does)
 ROBUST_SHARE_S = 60.0
+#: --time-budget's default with --data [s, wall clock]; the bundled demo runs without one unless given
+DATA_BUDGET_S = 300.0
 #: steps --skip may leave out
 SKIPPABLE = ("robust_shunt", "diagnose")
 #: what the demo writes into its --out folder (besides fit_<MODEL>.json, evidence_runs/, diagnosis/)
@@ -89,6 +93,11 @@ def register(sub) -> None:
                    help="seed of every stochastic step, a non-negative integer (default 0)")
     p.add_argument("--max-steps", type=int_at_least(1), default=None,
                    help="emcee step budget per model (default 20000; --quick 300)")
+    p.add_argument("--time-budget", type=_budget_seconds, default=None, metavar="SECONDS",
+                   help=f"wall-clock seconds for the whole run, shared between its steps ({budget_split()}); "
+                   "a step that reaches the end of its share stops with what it has, says so in one line "
+                   "and in the report's warnings, and the report is always written. Default "
+                   f"{DATA_BUDGET_S:g} with --data, none on the bundled data; 0 = none")
     p.add_argument("--skip", default=None, metavar="STEPS",
                    help=f"comma-separated steps to leave out ({', '.join(SKIPPABLE)}); the report says so")
     add_output_args(p, progress=True)
@@ -98,16 +107,36 @@ def register(sub) -> None:
 class _Demo:
     """The demo's state: output folder, printing, and the step log that becomes run.json."""
 
-    def __init__(self, args):
+    def __init__(self, args, budget: float | None = None):
         self.args = args
         self.out = Path(args.out)
         self.steps: list[dict] = []
         self.warnings: list[str] = []
+        self.cuts: list[str] = []
         self.t0 = time.perf_counter()
+        self.budget = Budget(budget)
 
     def say(self, text: str = "") -> None:
         if not self.args.quiet:
             print(text, flush=True)
+
+    def cut(self, step: str, what: str) -> None:
+        """A step the time budget cut: one line now, a warning and an entry of what the run did not do."""
+        share = self.budget.share(step)
+        text = (f"{step}: cut by the time budget ({self.budget.total:g} s, this step's share "
+                f"{share:.0f} s): {what}")
+        self.say(f"[{step}] {text}")
+        self.warnings.append(text)
+        self.cuts.append(text)
+
+    def progress(self):
+        """What the samplers get as ``progress``: bars on a terminal, else a line every few seconds
+        (False with --quiet)."""
+        if self.args.quiet:
+            return False
+        if sys.stderr.isatty():
+            return True
+        return lambda msg: self.say("  " + msg)
 
     def section(self, title: str) -> None:
         self.say(f"\n== {title} " + "=" * max(0, 70 - len(title)))
@@ -158,7 +187,8 @@ def run(args) -> int:
     if args.max_steps is not None:
         cfg["max_steps"] = args.max_steps
         cfg["screen_steps"] = min(cfg["screen_steps"], args.max_steps)
-    d = _Demo(args)
+    budget = DATA_BUDGET_S if args.time_budget is None and args.data else args.time_budget
+    d = _Demo(args, budget or None)
     out = d.out
     check_outputs(inputs=[("--data", args.data), ("--concealed", args.concealed)],
                   folders=[("--out", out, OUTPUTS)])
@@ -170,7 +200,11 @@ def run(args) -> int:
                "seed": args.seed, "cut": list(QUICK_CUTS) if args.quick else list(FULL_CUTS),
                "data": [_recording_summary(meas, "main chain: fits, evidence, posterior, shunts"),
                         _recording_summary(concealed, "diagnosis")],
-               "diagnosed": str(concealed.source), "truth": truth}
+               "diagnosed": str(concealed.source), "truth": truth,
+               "time_budget_s": d.budget.total, "budget_shares": dict(SHARES) if d.budget.total else None}
+    if d.budget.total:
+        d.say(f"time budget: {d.budget.total:g} s wall clock ({budget_split(d.budget.total)}); a step that "
+              "reaches the end of its share stops there and says so")
     if args.quick:
         d.say("--quick: " + " ".join(QUICK_CUTS))
 
@@ -200,9 +234,11 @@ def run(args) -> int:
                           + (" (--quick runs 300-step chains: expected; the full demo runs them to "
                              "convergence)" if args.quick else "") + ": its intervals, the evidence and the "
                           "robust shunt drawn from it are not to be trusted")
+    run_rec["cut"] += d.cuts
     run_rec.update(steps=d.steps, warnings=d.warnings, total_seconds=time.perf_counter() - d.t0,
                    preferred_model=preferred)
     write_json(out / "run.json", run_rec)
+    d.say("writing the report ...")
     report = build_report(out)
     d.section("outputs")
     for f in sorted(out.iterdir()):
@@ -229,11 +265,18 @@ def _fits(d: _Demo, meas, cfg, truth) -> dict:
 
     d.section("least-squares fits: automatic initial estimate + two-step least squares")
     fits, rows, t_all = {}, [], time.perf_counter()
-    for name in _progress(d, cfg["models"], "fits"):
+    models = list(cfg["models"])
+    for i, name in enumerate(_progress(d, models, "fits")):
+        if fits and d.budget.over("fit"):
+            d.cut("fit", f"{', '.join(models[i:])} not fitted (nor compared, nor designed for)")
+            break
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             fit = be.fit(meas, name)
         fits[name] = fit
+        if not d.args.quiet and not sys.stderr.isatty():
+            d.say(f"  {fit.model.label}: rms rel. residual {100 * fit.rms_rel_residual:.3f} % "
+                  f"({fit.info['seconds']:.1f} s)")
         p = fit.parameters
         rows.append((fit.model.label, f"{100 * fit.rms_rel_residual:.3f}", f"{p['zeta']:.4g}",
                      f"{p['omega0']:.4g}", f"{p['phi']:.4g}", f"{p['R0']:.4g}", f"{fit.info['seconds']:.1f}"))
@@ -267,7 +310,13 @@ def _hankel(d: _Demo, meas, cfg) -> int:
     if not cfg["hankel"]:
         d.step("hankel", "skipped", "--quick: NL ring count not chosen by Hankel singular values; n = 5 used")
         return 5
+    if d.budget.over("hankel"):
+        d.cut("hankel", "the NL ring count was not checked by Hankel singular values (an NL(7) fit); "
+              "n = 5 used")
+        d.step("hankel", "skipped", "cut by the time budget; n = 5 used")
+        return 5
     d.section("NL ring count by Hankel singular values (fit with 7 rings)")
+    d.say("  fitting NL(7) ...")
     t = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -316,8 +365,8 @@ def _evidence(d: _Demo, meas, fits, cfg):
                 warnings.simplefilter("ignore")
                 parts.append(be.compare(meas, group, seed=d.args.seed, methods=cfg["methods"], loo=cfg["loo"],
                                         max_steps=steps, results=work / f"comparison_{tag}.json",
-                                        workdir=work, progress=not d.args.quiet and sys.stderr.isatty(),
-                                        on_model=show))
+                                        workdir=work, progress=d.progress(), on_model=show,
+                                        deadline=d.budget.deadline("evidence")))
         except Exception as exc:  # noqa: BLE001 - an estimator failure must not lose the run
             msg = _one_line(exc)
             d.warnings.append(f"evidence of {', '.join(group)} failed ({msg}): those models are missing from "
@@ -330,6 +379,7 @@ def _evidence(d: _Demo, meas, fits, cfg):
                time.perf_counter() - t)
         return by_rms, None
     cmp = parts[0].merged(*parts[1:])
+    _evidence_cuts(d, cmp)
     order = {n: i for i, n in enumerate(fits)}
     cmp = dataclasses.replace(cmp, models=tuple(sorted(cmp.models, key=lambda m: order.get(m.name, 99))),
                               settings={"seed": d.args.seed, "methods": list(cfg["methods"]),
@@ -347,6 +397,31 @@ def _evidence(d: _Demo, meas, fits, cfg):
     d.say(f"preferred: {best} ({cmp.to_json_dict()['best_verdict'] or 'no verdict'})")
     d.step("compare", "ran", f"{', '.join(cfg['methods'])} for {', '.join(fits)}", time.perf_counter() - t)
     return best, cmp
+
+
+def _evidence_cuts(d: _Demo, cmp) -> None:
+    """Name what the time budget cut in the evidence step: chains stopped before their rule,
+    nested sampling not run."""
+    from ...evidence.compare import NESTED_CUT_NOTE
+
+    stopped = [m for m in cmp.models if any("stopped by the time budget" in w for w in m.warnings)]
+    if stopped:
+        d.cut("evidence", "emcee stopped before its convergence rule for " + ", ".join(
+            f"{m.name} (step {m.calls.get('emcee', 0) // max(1, _walkers(m))})" for m in stopped)
+            + ": their bridge-sampling log Z and the posterior drawn from them are not converged")
+    no_nested = [m.name for m in cmp.models if any(w.startswith(NESTED_CUT_NOTE) for w in m.warnings)]
+    if no_nested:
+        d.cut("evidence", f"no nested-sampling cross-check of {', '.join(no_nested)} (log Z by bridge "
+              "sampling alone)")
+
+
+def _walkers(m) -> int:
+    """Walkers of a model's emcee run (as :func:`~bayes_emt.inference.sampling.run_ensemble` sets them)."""
+    from ...inference.sampling import SamplerSettings
+
+    n = m.n_params
+    w = max(SamplerSettings().walkers_per_dim * n, 2 * n + 2)
+    return w + w % 2
 
 
 def _posterior(d: _Demo, cmp, preferred: str, fits):
@@ -418,13 +493,14 @@ def _robust(d: _Demo, post, fit, cfg) -> None:
         return
     d.section(f"robust RC shunt over {cfg['draws']} posterior draws of {post.model.label}")
     t = time.perf_counter()
+    share = ROBUST_SHARE_S if d.budget.total is None else d.budget.left("robust_shunt", MIN_STEP_S)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             # its share of the run: the robust choice stops there and says so (the report is written)
             res = be.robust_shunt(post, nominal=fit, n_draws=cfg["draws"], seed=d.args.seed,
                                   boundary_points=24, progress=not getattr(d.args, "quiet", False),
-                                  time_budget=ROBUST_SHARE_S)
+                                  time_budget=share)
         res.save(d.out / "robust_shunt.json")
         for name, plot in (("shunt_robust_gain.png", plot_gain_bands),
                            ("shunt_robust_distributions.png", plot_attenuation_distributions),
@@ -435,6 +511,9 @@ def _robust(d: _Demo, post, fit, cfg) -> None:
         return
     d.say(res.summary())
     d.step("robust_shunt", "ran", f"{cfg['draws']} draws", time.perf_counter() - t)
+    budget_notes = [str(w) for w in res.warnings if "budget" in str(w)]
+    if d.budget.total is not None and budget_notes:
+        d.cut("robust_shunt", f"stopped at its share ({share:.0f} s): " + budget_notes[0].splitlines()[0])
 
 
 def _diagnose(d: _Demo, meas, model: str) -> None:
@@ -453,10 +532,11 @@ def _diagnose(d: _Demo, meas, model: str) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             fit = be.fit(meas, model)
-            # no time budget: the diagnosis must not depend on how fast or busy the machine is (under
-            # load the default 240 CPU s ran out before second_resonance was tried)
+            # without a demo budget, none: the diagnosis must not depend on how fast or busy the machine
+            # is (under load the default 240 s ran out before second_resonance was tried)
+            share = d.budget.left("diagnose", MIN_STEP_S)
             diag = be.diagnose(meas, fit=fit, seed=d.args.seed, max_rounds=1 if d.args.quick else 4,
-                               time_budget=None,
+                               time_budget=share,
                                progress=None if d.args.quiet else (lambda msg: d.say("  " + msg)))
         diag.save(d.out / "diagnosis.json")
         folder = d.out / "diagnosis"
@@ -467,6 +547,9 @@ def _diagnose(d: _Demo, meas, model: str) -> None:
         d.failed("diagnose", exc, t)
         return
     d.step("diagnose", "ran", str(meas.source), time.perf_counter() - t)
+    if share is not None and diag.budget_hit:
+        w = next(w for w in diag.warnings if "time budget" in w)
+        d.cut("diagnose", f"its search stopped at its share ({share:.0f} s): {w.splitlines()[0]}")
     if diag.search_note:
         d.say(f"  {diag.search_note}")
     for f in diag.findings:
