@@ -21,10 +21,10 @@ __all__ = ["SHARES", "Budget", "budget_split", "budget_seconds"]
 
 #: (step, fraction of the budget), in the order the demo runs them
 SHARES = (
-    ("fit", 0.08),
-    ("hankel", 0.04),
-    ("evidence", 0.50),
-    ("shunt", 0.03),
+    ("fit", 0.05),
+    ("hankel", 0.03),
+    ("evidence", 0.45),
+    ("shunt", 0.12),
     ("robust_shunt", 0.12),
     ("diagnose", 0.18),
     ("report", 0.05),
@@ -35,7 +35,7 @@ MIN_STEP_S = 10.0
 
 
 def budget_split(total: float | None = None) -> str:
-    """``fit 8 %, hankel 4 %, ...`` (with ``total``: the seconds of each share)."""
+    """``fit 5 %, hankel 3 %, ...`` (with ``total``: the seconds of each share)."""
     if total:
         return ", ".join(f"{name} {f * total:.0f} s" for name, f in SHARES)
     return ", ".join(f"{name} {100 * f:g} %" for name, f in SHARES)

@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import sys
+import threading
 import time
 import warnings
 from pathlib import Path
@@ -49,6 +50,8 @@ QUICK = {"models": ("I", "II", "NL"), "hankel": False, "methods": ("laplace", "b
 ROBUST_SHARE_S = 60.0
 #: --time-budget's default with --data [s, wall clock]; the bundled demo runs without one unless given
 DATA_BUDGET_S = 300.0
+#: seconds without a printed line after which a redirected demo says which step is still running
+HEARTBEAT_S = 5.0
 #: steps --skip may leave out
 SKIPPABLE = ("robust_shunt", "diagnose")
 #: what the demo writes into its --out folder (besides fit_<MODEL>.json, evidence_runs/, diagnosis/)
@@ -115,10 +118,43 @@ class _Demo:
         self.cuts: list[str] = []
         self.t0 = time.perf_counter()
         self.budget = Budget(budget)
+        self._lock = threading.Lock()
+        self._said = self._stage_t0 = time.monotonic()
+        self.stage = "start"
 
     def say(self, text: str = "") -> None:
         if not self.args.quiet:
-            print(text, flush=True)
+            with self._lock:
+                print(text, flush=True)
+                self._said = time.monotonic()
+
+    def heartbeat(self):
+        """A context in which, when the output is not a terminal, a line says which step is still
+        running whenever nothing was printed for :data:`HEARTBEAT_S` seconds (a step that computes
+        without a progress line of its own is never silent longer)."""
+        d = self
+
+        class _Beat:
+            def __enter__(self):
+                if d.args.quiet or sys.stderr.isatty():
+                    return self
+                self.stop = threading.Event()
+                self.thread = threading.Thread(target=self.run, daemon=True, name="demo-heartbeat")
+                self.thread.start()
+                return self
+
+            def run(self):
+                while not self.stop.wait(0.5):
+                    now = time.monotonic()
+                    if now - d._said >= HEARTBEAT_S:
+                        d.say(f"  ... {d.stage}: still running ({now - d._stage_t0:.0f} s in this step)")
+
+            def __exit__(self, *exc):
+                if hasattr(self, "stop"):
+                    self.stop.set()
+                    self.thread.join()
+
+        return _Beat()
 
     def cut(self, step: str, what: str) -> None:
         """A step the time budget cut: one line now, a warning and an entry of what the run did not do."""
@@ -139,6 +175,7 @@ class _Demo:
         return lambda msg: self.say("  " + msg)
 
     def section(self, title: str) -> None:
+        self.stage, self._stage_t0 = title.split(":")[0].split(" (")[0], time.monotonic()
         self.say(f"\n== {title} " + "=" * max(0, 70 - len(title)))
 
     def step(self, name: str, status: str, detail: str = "", seconds: float | None = None) -> None:
@@ -214,32 +251,34 @@ def run(args) -> int:
               f"{r['f_min_hz']:.4g}..{r['f_max_hz']:.4g} Hz "
               f"({r['omega_min']:.4g}..{r['omega_max']:.4g} rad/s)")
 
-    fits = _fits(d, meas, cfg, truth)
-    _hankel(d, meas, cfg)
-    preferred, cmp = _evidence(d, meas, fits, cfg)
-    post = _posterior(d, cmp, preferred, fits)
-    _shunts(d, fits)
-    if "robust_shunt" in skip:
-        d.step("robust_shunt", "skipped", "--skip robust_shunt was given")
-    else:
-        _robust(d, post, fits.get(preferred), cfg)
-    if "diagnose" in skip:
-        d.step("diagnose", "skipped", "--skip diagnose was given")
-    else:
-        _diagnose(d, concealed, preferred)
+    with d.heartbeat():
+        fits = _fits(d, meas, cfg, truth)
+        _hankel(d, meas, cfg)
+        preferred, cmp = _evidence(d, meas, fits, cfg)
+        post = _posterior(d, cmp, preferred, fits)
+        _shunts(d, fits, preferred)
+        if "robust_shunt" in skip:
+            d.step("robust_shunt", "skipped", "--skip robust_shunt was given")
+        else:
+            _robust(d, post, fits.get(preferred), cfg)
+        if "diagnose" in skip:
+            d.step("diagnose", "skipped", "--skip diagnose was given")
+        else:
+            _diagnose(d, concealed, preferred)
 
-    unconverged = [s for s in d.steps if s["name"] == "sample" and "NOT CONVERGED" in s["detail"]]
-    if unconverged:
-        d.warnings.append("the preferred model's posterior did not converge"
-                          + (" (--quick runs 300-step chains: expected; the full demo runs them to "
-                             "convergence)" if args.quick else "") + ": its intervals, the evidence and the "
-                          "robust shunt drawn from it are not to be trusted")
-    run_rec["cut"] += d.cuts
-    run_rec.update(steps=d.steps, warnings=d.warnings, total_seconds=time.perf_counter() - d.t0,
-                   preferred_model=preferred)
-    write_json(out / "run.json", run_rec)
-    d.say("writing the report ...")
-    report = build_report(out)
+        unconverged = [s for s in d.steps if s["name"] == "sample" and "NOT CONVERGED" in s["detail"]]
+        if unconverged:
+            d.warnings.append("the preferred model's posterior did not converge"
+                              + (" (--quick runs 300-step chains: expected; the full demo runs them to "
+                                 "convergence)" if args.quick else "") + ": its intervals, the evidence and "
+                              "the robust shunt drawn from it are not to be trusted")
+        run_rec["cut"] += d.cuts
+        run_rec.update(steps=d.steps, warnings=d.warnings, total_seconds=time.perf_counter() - d.t0,
+                       preferred_model=preferred)
+        write_json(out / "run.json", run_rec)
+        d.stage, d._stage_t0 = "writing the report", time.monotonic()
+        d.say("writing the report ...")
+        report = build_report(out)
     d.section("outputs")
     for f in sorted(out.iterdir()):
         if f.is_file():
@@ -454,7 +493,7 @@ def _posterior(d: _Demo, cmp, preferred: str, fits):
     return post
 
 
-def _shunts(d: _Demo, fits) -> None:
+def _shunts(d: _Demo, fits, preferred: str | None = None) -> None:
     from ... import api as be
     from ...io.paramfile import write_json
     from ...shunt import evaluate_rc_shunt
@@ -464,7 +503,15 @@ def _shunts(d: _Demo, fits) -> None:
     t = time.perf_counter()
     rows, designs = [], {}
     ref = fits[best]
-    for name, fit in fits.items():
+    # the preferred and the best-fitting model's designs first: a time budget cuts the others
+    order = sorted(fits, key=lambda k: (k != preferred, k != best))
+    for i, name in enumerate(order):
+        fit = fits[name]
+        if designs and d.budget.over("shunt"):
+            d.cut("shunt", f"no RC shunt designed for {', '.join(order[i:])} (designed: "
+                  f"{', '.join(designs)})")
+            break
+        d.say(f"  designing the RC shunt of {fit.model.label} ...")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             dsg = be.design_shunt(fit)
@@ -472,6 +519,8 @@ def _shunts(d: _Demo, fits) -> None:
         designs[name] = {**dsg.to_json_dict(), f"evaluated_on_{best}": ev.to_json_dict()}
         rows.append((fit.model.label, f"{dsg.Rs:.4f}", f"{dsg.Cs:.4g}", f"{dsg.attenuation_db:.2f}",
                      f"{ev.attenuation_db:.2f}" if ev.stable else "UNSTABLE", f"{ev.stability_margin:.3f}"))
+    rows = [rows[list(designs).index(k)] for k in fits if k in designs]  # back in the fits' order
+    designs = {k: designs[k] for k in fits if k in designs}
     if not d.args.quiet:
         print_table(rows, ("design model", "Rs [ohm]", "Cs [F]", "own model [dB]", f"on {best} [dB]",
                            f"margin on {best} [ohm]"))
@@ -513,7 +562,8 @@ def _robust(d: _Demo, post, fit, cfg) -> None:
     d.step("robust_shunt", "ran", f"{cfg['draws']} draws", time.perf_counter() - t)
     budget_notes = [str(w) for w in res.warnings if "budget" in str(w)]
     if d.budget.total is not None and budget_notes:
-        d.cut("robust_shunt", f"stopped at its share ({share:.0f} s): " + budget_notes[0].splitlines()[0])
+        d.cut("robust_shunt", f"stopped after the {share:.0f} s left to it: "
+              + budget_notes[0].splitlines()[0])
 
 
 def _diagnose(d: _Demo, meas, model: str) -> None:
@@ -549,7 +599,7 @@ def _diagnose(d: _Demo, meas, model: str) -> None:
     d.step("diagnose", "ran", str(meas.source), time.perf_counter() - t)
     if share is not None and diag.budget_hit:
         w = next(w for w in diag.warnings if "time budget" in w)
-        d.cut("diagnose", f"its search stopped at its share ({share:.0f} s): {w.splitlines()[0]}")
+        d.cut("diagnose", f"its search stopped after the {share:.0f} s left to it: {w.splitlines()[0]}")
     if diag.search_note:
         d.say(f"  {diag.search_note}")
     for f in diag.findings:
