@@ -23,11 +23,11 @@ __all__ = ["SHARES", "Budget", "budget_split", "budget_seconds"]
 SHARES = (
     ("fit", 0.05),
     ("hankel", 0.03),
-    ("evidence", 0.45),
-    ("shunt", 0.12),
-    ("robust_shunt", 0.12),
-    ("diagnose", 0.18),
-    ("report", 0.05),
+    ("evidence", 0.37),
+    ("shunt", 0.10),
+    ("robust_shunt", 0.22),
+    ("diagnose", 0.15),
+    ("report", 0.08),
 )
 #: seconds the robust shunt and the diagnosis get at least, even when the steps before overran
 #: (below this neither returns anything useful)

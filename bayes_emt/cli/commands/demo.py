@@ -560,7 +560,8 @@ def _robust(d: _Demo, post, fit, cfg) -> None:
         return
     d.say(res.summary())
     d.step("robust_shunt", "ran", f"{cfg['draws']} draws", time.perf_counter() - t)
-    budget_notes = [str(w) for w in res.warnings if "budget" in str(w)]
+    # its own time budget's warning (``shunt.robust``: "the robust choice stopped at its time budget")
+    budget_notes = [str(w) for w in res.warnings if "stopped at its time budget" in str(w)]
     if d.budget.total is not None and budget_notes:
         d.cut("robust_shunt", f"stopped after the {share:.0f} s left to it: "
               + budget_notes[0].splitlines()[0])
