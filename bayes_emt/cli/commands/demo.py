@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import sys
 import threading
 import time
@@ -443,24 +444,16 @@ def _evidence_cuts(d: _Demo, cmp) -> None:
     nested sampling not run."""
     from ...evidence.compare import NESTED_CUT_NOTE
 
-    stopped = [m for m in cmp.models if any("stopped by the time budget" in w for w in m.warnings)]
+    stopped = {m.name: re.search(r"stopped by the time budget at step (\d+)", w)[1]
+               for m in cmp.models for w in m.warnings if "stopped by the time budget at step" in w}
     if stopped:
         d.cut("evidence", "emcee stopped before its convergence rule for " + ", ".join(
-            f"{m.name} (step {m.calls.get('emcee', 0) // max(1, _walkers(m))})" for m in stopped)
+            f"{name} (step {step})" for name, step in stopped.items())
             + ": their bridge-sampling log Z and the posterior drawn from them are not converged")
     no_nested = [m.name for m in cmp.models if any(w.startswith(NESTED_CUT_NOTE) for w in m.warnings)]
     if no_nested:
         d.cut("evidence", f"no nested-sampling cross-check of {', '.join(no_nested)} (log Z by bridge "
               "sampling alone)")
-
-
-def _walkers(m) -> int:
-    """Walkers of a model's emcee run (as :func:`~bayes_emt.inference.sampling.run_ensemble` sets them)."""
-    from ...inference.sampling import SamplerSettings
-
-    n = m.n_params
-    w = max(SamplerSettings().walkers_per_dim * n, 2 * n + 2)
-    return w + w % 2
 
 
 def _posterior(d: _Demo, cmp, preferred: str, fits):
