@@ -80,3 +80,18 @@ def test_a_step_cut_by_the_budget_is_named_and_the_report_is_still_written(tmp_p
     assert post["converged"] is False and "stopped by the time budget" in post["message"]
     html = (out / "report.html").read_text()
     assert "cut by the time budget" in html
+
+
+def test_the_heartbeat_names_the_step_still_running_when_nothing_was_printed():
+    from bayes_emt.cli.commands._demo_budget import Heartbeat
+
+    lines, t0 = [], time.monotonic()
+    with Heartbeat(lambda: t0, lambda: ("evidence", t0), lines.append, every=0.2):
+        time.sleep(1.2)
+    assert lines and all(ln.startswith("  ... evidence: still running (") for ln in lines), lines
+    n = len(lines)
+    time.sleep(0.6)
+    assert len(lines) == n  # the thread ended with the context
+    with Heartbeat(lambda: t0, lambda: ("x", t0), lines.append, every=0.0, on=False):
+        time.sleep(0.6)
+    assert len(lines) == n

@@ -10,14 +10,18 @@ boundary with its convergence verdict judged on what it has; nested sampling, th
 cross-check, is not started; the robust shunt and the diagnosis stop by their own time budgets)
 and the demo names the cut in one line, in the report's warnings and in its list of what the run
 did not do.
+
+A redirected run (a log file, a pipe) is never silent for long: :class:`Heartbeat` prints which step
+is still running whenever nothing was printed for a few seconds.
 """
 
 from __future__ import annotations
 
 import argparse
+import threading
 import time
 
-__all__ = ["SHARES", "Budget", "budget_split", "budget_seconds"]
+__all__ = ["SHARES", "Budget", "Heartbeat", "budget_split", "budget_seconds"]
 
 #: (step, fraction of the budget), in the order the demo runs them
 SHARES = (
@@ -82,3 +86,32 @@ class Budget:
         """Whether ``step``'s deadline has passed."""
         end = self.deadline(step)
         return end is not None and time.monotonic() >= end
+
+
+class Heartbeat:
+    """A context: a thread that calls ``say("  ... STEP: still running (N s in this step)")`` whenever
+    ``last_said()`` (a :func:`time.monotonic` instant) is ``every`` seconds old; ``stage()`` returns
+    the step's name and start. Does nothing when ``on`` is False."""
+
+    def __init__(self, last_said, stage, say, every: float, on: bool = True):
+        self.last_said, self.stage, self.say, self.every, self.on = last_said, stage, say, every, on
+        self._stop = threading.Event()
+        self._thread = None
+
+    def __enter__(self):
+        if self.on:
+            self._thread = threading.Thread(target=self._run, daemon=True, name="demo-heartbeat")
+            self._thread.start()
+        return self
+
+    def _run(self):
+        while not self._stop.wait(0.5):
+            now = time.monotonic()
+            if now - self.last_said() >= self.every:
+                name, t0 = self.stage()
+                self.say(f"  ... {name}: still running ({now - t0:.0f} s in this step)")
+
+    def __exit__(self, *exc):
+        if self._thread is not None:
+            self._stop.set()
+            self._thread.join()

@@ -31,7 +31,7 @@ from pathlib import Path
 
 from ..paths import check_outputs
 from ._common import add_output_args, add_parser, int_at_least, print_table, print_warning_lines, seed
-from ._demo_budget import MIN_STEP_S, SHARES, Budget, budget_split
+from ._demo_budget import MIN_STEP_S, SHARES, Budget, Heartbeat, budget_split
 from ._demo_budget import budget_seconds as _budget_seconds
 
 EXAMPLES = """\
@@ -129,33 +129,11 @@ class _Demo:
                 print(text, flush=True)
                 self._said = time.monotonic()
 
-    def heartbeat(self):
-        """A context in which, when the output is not a terminal, a line says which step is still
-        running whenever nothing was printed for :data:`HEARTBEAT_S` seconds (a step that computes
-        without a progress line of its own is never silent longer)."""
-        d = self
-
-        class _Beat:
-            def __enter__(self):
-                if d.args.quiet or sys.stderr.isatty():
-                    return self
-                self.stop = threading.Event()
-                self.thread = threading.Thread(target=self.run, daemon=True, name="demo-heartbeat")
-                self.thread.start()
-                return self
-
-            def run(self):
-                while not self.stop.wait(0.5):
-                    now = time.monotonic()
-                    if now - d._said >= HEARTBEAT_S:
-                        d.say(f"  ... {d.stage}: still running ({now - d._stage_t0:.0f} s in this step)")
-
-            def __exit__(self, *exc):
-                if hasattr(self, "stop"):
-                    self.stop.set()
-                    self.thread.join()
-
-        return _Beat()
+    def heartbeat(self) -> Heartbeat:
+        """While it is entered, a line names the step still running whenever a redirected run
+        printed nothing for :data:`HEARTBEAT_S` seconds (none on a terminal or with --quiet)."""
+        on = not (self.args.quiet or sys.stderr.isatty())
+        return Heartbeat(lambda: self._said, lambda: (self.stage, self._stage_t0), self.say, HEARTBEAT_S, on)
 
     def cut(self, step: str, what: str) -> None:
         """A step the time budget cut: one line now, a warning and an entry of what the run did not do."""
