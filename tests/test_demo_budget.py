@@ -55,27 +55,34 @@ def test_emcee_stops_at_its_deadline_with_a_valid_chain_and_says_so(monkeypatch)
     assert any(line.startswith("emcee ") and "step 100/" in line for line in lines), lines[-3:]
 
 
-def test_a_step_cut_by_the_budget_is_named_and_the_report_is_still_written(tmp_path):
+def test_a_step_cut_by_the_budget_is_named_and_the_report_is_still_written(tmp_path, monkeypatch):
+    from bayes_emt.cli.commands import demo
+
     out = tmp_path / "run"
     buf = io.StringIO()
+    # the robust shunt's worker process gets 0.5 s (it cannot even load the posterior in that time)
+    monkeypatch.setattr(demo, "MIN_STEP_S", 0.5)
     with warnings.catch_warnings(), contextlib.redirect_stdout(buf):
         warnings.simplefilter("ignore")
         # a budget of 1 ms: every share is over at once; the first model is still fitted and the
         # chain still makes its minimum of steps
         rc = main(["demo", "--quick", "--out", str(out), "--seed", "2", "--time-budget", "0.001",
-                   "--skip", "robust_shunt,diagnose"])
+                   "--skip", "diagnose"])
     text = buf.getvalue()
     assert rc == 1  # the preferred posterior did not converge: said, with exit status 1
     assert (out / "report.html").exists()
     run = json.loads((out / "run.json").read_text())
     assert run["time_budget_s"] == pytest.approx(0.001)
     assert list(json.loads((out / "fits.json").read_text())) == ["I"]
-    for step in ("fit", "evidence"):
+    for step in ("fit", "evidence", "robust_shunt"):
         said = f"[{step}] {step}: cut by the time budget"
         assert any(ln.startswith(said) for ln in text.splitlines()), (step, text)
         assert any(w.startswith(f"{step}: cut by the time budget") for w in run["warnings"])
         assert any(c.startswith(f"{step}: cut by the time budget") for c in run["cut"])
     assert "II, NL not fitted" in text
+    assert not (out / "robust_shunt.json").exists()  # the worker was ended before it wrote anything
+    steps = {s["name"]: s for s in run["steps"]}
+    assert steps["robust_shunt"]["status"] == "skipped" and "time budget" in steps["robust_shunt"]["detail"]
     post = json.loads((out / "posterior.json").read_text())
     assert post["converged"] is False and "stopped by the time budget" in post["message"]
     html = (out / "report.html").read_text()

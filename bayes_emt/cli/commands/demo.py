@@ -239,7 +239,7 @@ def run(args) -> int:
         if "robust_shunt" in skip:
             d.step("robust_shunt", "skipped", "--skip robust_shunt was given")
         else:
-            _robust(d, post, fits.get(preferred), cfg)
+            _robust(d, post, fits.get(preferred), cfg, d.out / f"fit_{preferred}.json")
         if "diagnose" in skip:
             d.step("diagnose", "skipped", "--skip diagnose was given")
         else:
@@ -499,7 +499,59 @@ def _shunts(d: _Demo, fits, preferred: str | None = None) -> None:
     d.step("shunt", "ran", f"{len(designs)} designs", time.perf_counter() - t)
 
 
-def _robust(d: _Demo, post, fit, cfg) -> None:
+def _robust(d: _Demo, post, fit, cfg, fit_file=None) -> None:
+    """The robust shunt over the preferred posterior's draws. Without a time budget, here, its choice
+    limited to :data:`ROBUST_SHARE_S`. With one, in a worker process (reading the saved posterior
+    and fit) that is ended at the step's deadline: every draw's own design, before the choice, cannot
+    be stopped from within (one draw whose batched design does not settle is designed alone, seconds
+    each); the step is then named as cut and the rest of the run goes on."""
+    if post is None:
+        d.step("robust_shunt", "skipped", "no posterior")
+        return
+    d.section(f"robust RC shunt over {cfg['draws']} posterior draws of {post.model.label}")
+    t = time.perf_counter()
+    progress = not getattr(d.args, "quiet", False)
+    try:
+        if d.budget.total is None:
+            summary, warns = _robust_design(d.out, post, fit, cfg["draws"], d.args.seed, ROBUST_SHARE_S,
+                                            progress)
+        else:
+            left = d.budget.left("robust_shunt", MIN_STEP_S)
+            # the choice gets what the per-draw designs leave, less the few seconds of saving and figures
+            choice = max(1.0, left - ROBUST_SAVE_S)
+            from ..._procs import ProcessPool
+
+            with ProcessPool(1, step="the robust shunt") as pool:
+                task = pool.submit(_robust_worker, str(d.out), str(d.out / "posterior.nc"),
+                                   None if fit_file is None else str(fit_file), cfg["draws"], d.args.seed,
+                                   choice, progress)
+                try:
+                    summary, warns = task.result(timeout=left)
+                except TimeoutError:
+                    pool.stop_workers()
+                    d.cut("robust_shunt", f"not finished in the {left:.0f} s left to it (every posterior "
+                          "draw's own design comes first, some draws one at a time): no robust shunt in this "
+                          "run; bayes-emt shunt --posterior on the saved posterior.nc designs it")
+                    d.step("robust_shunt", "skipped", "cut by the time budget: not finished in its share",
+                           time.perf_counter() - t)
+                    return
+    except Exception as exc:  # noqa: BLE001 - a feature step that fails must not lose the rest of the run
+        d.failed("robust_shunt", exc, t)
+        return
+    d.say(summary)
+    d.step("robust_shunt", "ran", f"{cfg['draws']} draws", time.perf_counter() - t)
+    # its own time budget's warning (``shunt.robust``: "the robust choice stopped at its time budget")
+    budget_notes = [w for w in warns if "stopped at its time budget" in w]
+    if d.budget.total is not None and budget_notes:
+        d.cut("robust_shunt", "its choice stopped early: " + budget_notes[0].splitlines()[0])
+
+
+#: seconds a budgeted robust-shunt step keeps for saving its result and figures after the choice
+ROBUST_SAVE_S = 8.0
+
+
+def _robust_design(out, post, fit, n_draws: int, seed: int, choice_budget: float, progress: bool):
+    """``be.robust_shunt`` on ``post``, saved with its figures into ``out``; its summary and warnings."""
     from ... import api as be
     from ...plotting import save_figure
     from ...plotting.robust_shunt import (
@@ -508,34 +560,26 @@ def _robust(d: _Demo, post, fit, cfg) -> None:
         plot_stability_boundary,
     )
 
-    if post is None:
-        d.step("robust_shunt", "skipped", "no posterior")
-        return
-    d.section(f"robust RC shunt over {cfg['draws']} posterior draws of {post.model.label}")
-    t = time.perf_counter()
-    share = ROBUST_SHARE_S if d.budget.total is None else d.budget.left("robust_shunt", MIN_STEP_S)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            # its share of the run: the robust choice stops there and says so (the report is written)
-            res = be.robust_shunt(post, nominal=fit, n_draws=cfg["draws"], seed=d.args.seed,
-                                  boundary_points=24, progress=not getattr(d.args, "quiet", False),
-                                  time_budget=share)
-        res.save(d.out / "robust_shunt.json")
-        for name, plot in (("shunt_robust_gain.png", plot_gain_bands),
-                           ("shunt_robust_distributions.png", plot_attenuation_distributions),
-                           ("shunt_robust_boundary.png", plot_stability_boundary)):
-            save_figure(plot(res.detail), d.out / name, dpi=100)
-    except Exception as exc:  # noqa: BLE001 - a feature step that fails must not lose the rest of the run
-        d.failed("robust_shunt", exc, t)
-        return
-    d.say(res.summary())
-    d.step("robust_shunt", "ran", f"{cfg['draws']} draws", time.perf_counter() - t)
-    # its own time budget's warning (``shunt.robust``: "the robust choice stopped at its time budget")
-    budget_notes = [str(w) for w in res.warnings if "stopped at its time budget" in str(w)]
-    if d.budget.total is not None and budget_notes:
-        d.cut("robust_shunt", f"stopped after the {share:.0f} s left to it: "
-              + budget_notes[0].splitlines()[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = be.robust_shunt(post, nominal=fit, n_draws=n_draws, seed=seed, boundary_points=24,
+                              progress=progress, time_budget=choice_budget)
+    res.save(Path(out) / "robust_shunt.json")
+    for name, plot in (("shunt_robust_gain.png", plot_gain_bands),
+                       ("shunt_robust_distributions.png", plot_attenuation_distributions),
+                       ("shunt_robust_boundary.png", plot_stability_boundary)):
+        save_figure(plot(res.detail), Path(out) / name, dpi=100)
+    return res.summary(), [str(w) for w in res.warnings]
+
+
+def _robust_worker(out: str, post_file: str, fit_file: str | None, n_draws: int, seed: int,
+                   choice_budget: float, progress: bool):
+    """:func:`_robust_design` in a worker process, from the saved posterior and fit."""
+    from ... import api as be
+
+    post = be.load(post_file)
+    fit = be.load(fit_file) if fit_file and Path(fit_file).exists() else None
+    return _robust_design(out, post, fit, n_draws, seed, choice_budget, progress)
 
 
 def _diagnose(d: _Demo, meas, model: str) -> None:
