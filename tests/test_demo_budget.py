@@ -102,3 +102,11 @@ def test_the_heartbeat_names_the_step_still_running_when_nothing_was_printed():
     with Heartbeat(lambda: t0, lambda: ("x", t0), lines.append, every=0.0, on=False):
         time.sleep(0.6)
     assert len(lines) == n
+
+
+def test_demo_help_states_the_budget_and_its_shares(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["demo", "--help"])
+    assert e.value.code == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--time-budget SECONDS" in text and "evidence 37 %" in text and "Default 300 s with --data" in text

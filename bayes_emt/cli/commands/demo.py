@@ -91,6 +91,10 @@ def register(sub) -> None:
                    "chains, no Hankel ring choice, 200 draws for the robust shunt (the report says what "
                    "was cut)")
     p.add_argument("--data", default=None, help="measurement file instead of the bundled paper_bench.csv")
+    p.add_argument("--freq-unit", choices=["hz", "rad/s"], default=None,
+                   help="frequency column unit of --data and --concealed, when the file does not say")
+    p.add_argument("--phase-unit", choices=["deg", "rad"], default=None,
+                   help="phase column unit of --data and --concealed, when the file does not say")
     p.add_argument("--concealed", default=None, metavar="FILE",
                    help="recording to diagnose instead of the bundled concealed_bench.csv")
     p.add_argument("--seed", type=seed, default=0,
@@ -98,10 +102,11 @@ def register(sub) -> None:
     p.add_argument("--max-steps", type=int_at_least(1), default=None,
                    help="emcee step budget per model (default 20000; --quick 300)")
     p.add_argument("--time-budget", type=_budget_seconds, default=None, metavar="SECONDS",
-                   help=f"wall-clock seconds for the whole run, shared between its steps ({budget_split()}); "
+                   help="wall-clock seconds for the whole run, shared between its steps "
+                   f"({budget_split().replace('%', '%%')}); "
                    "a step that reaches the end of its share stops with what it has, says so in one line "
                    "and in the report's warnings, and the report is always written. Default "
-                   f"{DATA_BUDGET_S:g} with --data, none on the bundled data; 0 = none")
+                   f"{DATA_BUDGET_S:g} s with --data, none on the bundled data; 0 = none")
     p.add_argument("--skip", default=None, metavar="STEPS",
                    help=f"comma-separated steps to leave out ({', '.join(SKIPPABLE)}); the report says so")
     add_output_args(p, progress=True)
@@ -209,8 +214,9 @@ def run(args) -> int:
     check_outputs(inputs=[("--data", args.data), ("--concealed", args.concealed)],
                   folders=[("--out", out, OUTPUTS)])
     out.mkdir(parents=True, exist_ok=True)
-    meas = be.read(args.data) if args.data else be.load_paper_bench()
-    concealed = be.read(args.concealed) if args.concealed else be.load_concealed_bench()
+    units = {"freq_unit": getattr(args, "freq_unit", None), "phase_unit": getattr(args, "phase_unit", None)}
+    meas = be.read(args.data, **units) if args.data else be.load_paper_bench()
+    concealed = be.read(args.concealed, **units) if args.concealed else be.load_concealed_bench()
     truth = meas.meta.get("written_meta", {}).get("truth") if not args.data else None
     run_rec = {"title": "bayes_emt demo" + (" (--quick)" if args.quick else ""), "quick": bool(args.quick),
                "seed": args.seed, "cut": list(QUICK_CUTS) if args.quick else list(FULL_CUTS),
