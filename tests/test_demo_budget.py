@@ -110,3 +110,18 @@ def test_demo_help_states_the_budget_and_its_shares(capsys):
     assert e.value.code == 0
     text = " ".join(capsys.readouterr().out.split())
     assert "--time-budget SECONDS" in text and "evidence 37 %" in text and "Default 300 s with --data" in text
+
+
+def test_past_its_deadline_a_models_evidence_skips_nested_sampling_and_loo_and_says_so():
+    from bayes_emt.evidence.compare import LOO_CUT_NOTE, NESTED_CUT_NOTE, CompareSettings, model_evidence
+
+    model = build_model("I")
+    meas = simulate(model, PAPER_TABLES["I"], np.geomspace(10, 1e5, 150), noise=0.002, seed=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = model_evidence(meas, model, settings=CompareSettings(seed=1, loo=True), deadline=time.monotonic())
+    assert "nested" not in m.by_method and m.elpd_loo is None
+    assert any(w.startswith(NESTED_CUT_NOTE) for w in m.warnings)
+    assert any(w.startswith(LOO_CUT_NOTE) for w in m.warnings)
+    # the bridge estimate on the shortened chain is still there, and flagged as not converged
+    assert np.isfinite(m.by_method["bridge"]["log_evidence"]) and not m.converged

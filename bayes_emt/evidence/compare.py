@@ -69,6 +69,7 @@ __all__ = ["CompareSettings", "model_evidence", "compare_models", "load_results"
 
 MODE_GAP_NATS = 10.0  # nested's best log-likelihood above emcee's best: another mode
 NESTED_CUT_NOTE = "nested sampling not run"
+LOO_CUT_NOTE = "PSIS-LOO not computed"
 
 
 @dataclass(frozen=True)
@@ -155,8 +156,8 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
     progress : progress bars (``True``), or a ``callable(str)`` told how the samplers proceed every
         few seconds (for redirected output).
     deadline : a :func:`time.monotonic` instant: the emcee chain stops at it (its message says so,
-        :func:`~bayes_emt.inference.sampling.run_ensemble`) and nested sampling, the cross-check, is
-        not started after it (a note says so).
+        :func:`~bayes_emt.inference.sampling.run_ensemble`); nested sampling, the cross-check, and
+        PSIS-LOO are not started after it (a note says so).
     """
     name = name or model.label
     lik = Likelihood(model, meas)
@@ -278,7 +279,11 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
     elpd = se = None
     widened: dict = {}
     if post is not None:
-        if settings.loo:
+        loo = settings.loo
+        if loo and deadline is not None and time.monotonic() >= deadline:
+            loo = False
+            notes.append(f"{LOO_CUT_NOTE}: the time budget ran out")
+        if loo:
             tell(f"{name}: PSIS-LOO")
             t = time.perf_counter()
             elpd, se, loo_notes = psis_loo(post)

@@ -426,7 +426,7 @@ def _evidence(d: _Demo, meas, fits, cfg):
 def _evidence_cuts(d: _Demo, cmp) -> None:
     """Name what the time budget cut in the evidence step: chains stopped before their rule,
     nested sampling not run."""
-    from ...evidence.compare import NESTED_CUT_NOTE
+    from ...evidence.compare import LOO_CUT_NOTE, NESTED_CUT_NOTE
 
     stopped = {m.name: re.search(r"stopped by the time budget at step (\d+)", w)[1]
                for m in cmp.models for w in m.warnings if "stopped by the time budget at step" in w}
@@ -438,6 +438,9 @@ def _evidence_cuts(d: _Demo, cmp) -> None:
     if no_nested:
         d.cut("evidence", f"no nested-sampling cross-check of {', '.join(no_nested)} (log Z by bridge "
               "sampling alone)")
+    no_loo = [m.name for m in cmp.models if any(w.startswith(LOO_CUT_NOTE) for w in m.warnings)]
+    if no_loo:
+        d.cut("evidence", f"no PSIS-LOO of {', '.join(no_loo)}")
 
 
 def _posterior(d: _Demo, cmp, preferred: str, fits):
