@@ -109,14 +109,17 @@ def compare(meas: Measurement | str | Path, models: Sequence[str | Model] = ("I"
             nested: NestedSettings | None = None, nested_prior: str = "posterior", nested_repeats: int = 1,
             loo: bool = True, sensitivity: bool = True, results: str | Path | None = None,
             workdir: str | Path | None = None,
-            progress: bool = False, on_model=None) -> Comparison:
+            progress=False, on_model=None, deadline: float | None = None) -> Comparison:
     """Evidence of each model (spec strings or Models): log Z by bridge sampling on its emcee
     posterior and by nested sampling (its prior repartitioned onto those draws), Laplace beside,
     Bayes factors on Kass & Raftery's scale, PSIS-LOO and prior sensitivity
     (:func:`~bayes_emt.evidence.compare.compare_models`). ``results``: a JSON file written after
     every model (a re-run with the same file resumes). ``rings`` (``"1-7"``, ``[2, 3, 5]``): every
     NL/UL spec once per ring count, and with several counts the ring count by evidence beside
-    Hankel's. ``on_model(model_evidence, reused)`` is called as each model finishes."""
+    Hankel's. ``on_model(model_evidence, reused)`` is called as each model finishes. ``progress``: bars,
+    or a ``callable(str)`` told every few seconds; ``deadline``: a :func:`time.monotonic` instant
+    the models share (each emcee chain stops at its share, nested sampling is not started after
+    it; both say so)."""
     meas = as_measurement(meas)
     if isinstance(models, str | Model):
         models = [models]
@@ -131,7 +134,7 @@ def compare(meas: Measurement | str | Path, models: Sequence[str | Model] = ("I"
                                nested=nested or NestedSettings(), nested_prior=nested_prior,
                                nested_repeats=nested_repeats, loo=loo, sensitivity=sensitivity)
     cmp = compare_models(meas, specs, settings=settings, results=results, workdir=workdir, progress=progress,
-                         on_model=on_model)
+                         on_model=on_model, deadline=deadline)
     if ringed and counts is not None and len(counts) > 1:
         group = [m for m in cmp.models if m.rings is not None and m.name.rsplit("(", 1)[0] == ringed[0]]
         cmp = dataclasses.replace(cmp, rings=ring_choice(meas, group, max_rings=max(7, max(counts))))

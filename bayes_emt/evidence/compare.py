@@ -68,6 +68,8 @@ from .warp import Warp
 __all__ = ["CompareSettings", "model_evidence", "compare_models", "load_results"]
 
 MODE_GAP_NATS = 10.0  # nested's best log-likelihood above emcee's best: another mode
+NESTED_CUT_NOTE = "nested sampling not run"
+LOO_CUT_NOTE = "PSIS-LOO not computed"
 
 
 @dataclass(frozen=True)
@@ -140,7 +142,7 @@ def _laplace(lik: Likelihood, fit, post=None) -> tuple[dict, int]:
 
 def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
                    settings: CompareSettings = CompareSettings(), workdir: str | Path | None = None,
-                   progress: bool = False) -> ModelEvidence:
+                   progress=False, deadline: float | None = None) -> ModelEvidence:
     """The evidence of one model (module docstring, steps 1-6).
 
     Parameters
@@ -151,7 +153,11 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
     settings : :class:`CompareSettings`.
     workdir : folder for the posterior (netCDF), the nested run (netCDF + JSON) and both
         checkpoints; ``None`` keeps everything in memory (no resume).
-    progress : progress bars.
+    progress : progress bars (``True``), or a ``callable(str)`` told how the samplers proceed every
+        few seconds (for redirected output).
+    deadline : a :func:`time.monotonic` instant: the emcee chain stops at it (its message says so,
+        :func:`~bayes_emt.inference.sampling.run_ensemble`); nested sampling, the cross-check, and
+        PSIS-LOO are not started after it (a note says so).
     """
     name = name or model.label
     lik = Likelihood(model, meas)
@@ -166,6 +172,8 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
         work.mkdir(parents=True, exist_ok=True)
     stem = _stem(model) + "_" + key[:8]
 
+    tell = progress if callable(progress) else (lambda msg: None)
+    tell(f"{name}: least-squares fit, then the emcee posterior")
     t = time.perf_counter()
     fit = fit_admittance(meas, model)
     seconds["fit"] = time.perf_counter() - t
@@ -178,7 +186,8 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
             warnings.simplefilter("always", ConvergenceWarning)
             post = sample_likelihood(lik, fit=fit, seed=settings.seed, checkpoint=ckpt,
                                      resume=ckpt is not None and ckpt.exists(),
-                                     overwrite=False, progress=progress, settings=settings.sampler)
+                                     overwrite=False, progress=progress, settings=settings.sampler,
+                                     deadline=deadline)
         converged = bool(post.converged)
         if not converged:
             notes.append(f"emcee posterior not converged ({post.message}): bridge and LOO are not trusted")
@@ -187,6 +196,7 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
         calls["emcee"] = int(post.n_steps * post.n_walkers)
         if work is not None:
             posterior_file = str(post.save(work / f"{stem}_posterior.nc"))
+        tell(f"{name}: bridge sampling on {len(post.draws)} draws")
         t = time.perf_counter()
         draws_z = lik.params.to_z(post.draws)
         br = bridge_evidence(lik.log_posterior_z, lik.params, draws_z, seed=settings.seed,
@@ -198,6 +208,7 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
         calls["bridge"] = br.n_calls
 
     if "laplace" in settings.methods:
+        tell(f"{name}: Laplace screen")
         t = time.perf_counter()
         try:
             by_method["laplace"], calls["laplace"] = _laplace(lik, fit, post)
@@ -207,7 +218,12 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
             notes.append(f"Laplace screen failed: {exc}")
         seconds["laplace"] = time.perf_counter() - t
 
-    if "nested" in settings.methods:
+    nested = "nested" in settings.methods
+    if nested and deadline is not None and time.monotonic() >= deadline:
+        nested = False
+        notes.append(f"{NESTED_CUT_NOTE}: the time budget ran out (the evidence is bridge sampling's alone)")
+    if nested:
+        tell(f"{name}: nested sampling")
         t = time.perf_counter()
         runs = []
         target = lik
@@ -263,7 +279,12 @@ def model_evidence(meas: Measurement, model: Model, name: str | None = None, *,
     elpd = se = None
     widened: dict = {}
     if post is not None:
-        if settings.loo:
+        loo = settings.loo
+        if loo and deadline is not None and time.monotonic() >= deadline:
+            loo = False
+            notes.append(f"{LOO_CUT_NOTE}: the time budget ran out")
+        if loo:
+            tell(f"{name}: PSIS-LOO")
             t = time.perf_counter()
             elpd, se, loo_notes = psis_loo(post)
             notes += loo_notes
@@ -346,7 +367,8 @@ def compare_models(meas: Measurement, specs: Sequence[tuple[str, Model]], *,
                    settings: CompareSettings = CompareSettings(), results: str | Path | None = None,
                    workdir: str | Path | None = None, progress: bool = False,
                    rings_info: dict | None = None,
-                   on_model: Callable[[ModelEvidence, bool], None] | None = None) -> Comparison:
+                   on_model: Callable[[ModelEvidence, bool], None] | None = None,
+                   deadline: float | None = None) -> Comparison:
     """Evidence of every ``(name, model)`` candidate and the comparison between them.
 
     Parameters
@@ -358,6 +380,9 @@ def compare_models(meas: Measurement, specs: Sequence[tuple[str, Model]], *,
     workdir : folder for posteriors, nested runs and checkpoints (default: beside ``results``).
     rings_info : ring-count comparison to include (:func:`bayes_emt.evidence.rings.ring_choice`).
     on_model : called with each finished model and whether it was reused from ``results``.
+    deadline : a :func:`time.monotonic` instant by which every model should be done: each model in
+        turn gets an equal share of the time left when it starts (a model done early leaves its
+        rest to the next), passed to :func:`model_evidence`.
     """
     if workdir is None and results is not None:
         workdir = Path(results).with_name(Path(results).stem + "_runs")
@@ -369,11 +394,13 @@ def compare_models(meas: Measurement, specs: Sequence[tuple[str, Model]], *,
                           extra_rings if extra_rings is not None else (rings_info or {}),
                           settings.to_dict(), ())
 
-    for name, model in specs:
+    for i, (name, model) in enumerate(specs):
         key = _key(Likelihood(model, meas), settings)
         reused = key in done
+        now = time.monotonic()
+        share = None if deadline is None else now + (deadline - now) / (len(specs) - i)
         m = done[key] if reused else model_evidence(meas, model, name, settings=settings, workdir=workdir,
-                                                     progress=progress)
+                                                     progress=progress, deadline=share)
         models.append(m)
         if results is not None:
             atomic_write_text(results, json.dumps(record().to_json_dict(), indent=2))

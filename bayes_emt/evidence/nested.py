@@ -245,9 +245,28 @@ def _identity(target, seed: int, settings: NestedSettings) -> dict:
     return {**target_identity(target), "seed": int(seed), "nested": asdict(settings)}
 
 
+#: seconds between progress lines when ``progress`` is a callable
+PROGRESS_EVERY_S = 5.0
+
+
+def _lines(tell, label: str):
+    """dynesty's ``print_func``: a line to ``tell`` at most every :data:`PROGRESS_EVERY_S` seconds."""
+    t0 = last = time.monotonic()
+
+    def print_func(itresult, niter, ncall, *args, dlogz=None, **kwargs):
+        nonlocal last
+        now = time.monotonic()
+        if now - last >= PROGRESS_EVERY_S:
+            last = now
+            tell(f"nested {label}: iteration {niter}, {ncall} calls, log Z {float(itresult.logz):.1f}, "
+                 f"remaining dlogz {float(itresult.delta_logz):.3g} (stops below {dlogz}) ({now - t0:.0f} s)")
+
+    return print_func
+
+
 def run_nested(target, *, seed: int = 0, settings: NestedSettings = NestedSettings(),
                checkpoint: str | Path | None = None, resume: bool = False,
-               progress: bool = False) -> NestedRun:
+               progress=False) -> NestedRun:
     """log Z of ``target`` by static nested sampling (module docstring).
 
     Parameters
@@ -262,7 +281,8 @@ def run_nested(target, *, seed: int = 0, settings: NestedSettings = NestedSettin
     checkpoint : dynesty state file (its identity goes to ``<checkpoint>.json``); ``None``: none.
     resume : continue the run in ``checkpoint`` (same identity), else start afresh (an existing
         checkpoint is replaced).
-    progress : dynesty's progress line on stderr.
+    progress : dynesty's progress line on stderr, or a ``callable(str)`` told the iteration, calls
+        and log Z every :data:`PROGRESS_EVERY_S` seconds (for redirected output).
     """
     import dynesty
 
@@ -304,7 +324,9 @@ def run_nested(target, *, seed: int = 0, settings: NestedSettings = NestedSettin
                 use_pool={"prior_transform": False}, **kwargs)
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", category=RuntimeWarning)  # exp of -inf log weights
-            sampler.run_nested(dlogz=settings.dlogz, maxcall=settings.max_calls, print_progress=progress,
+            sampler.run_nested(dlogz=settings.dlogz, maxcall=settings.max_calls,
+                               print_progress=bool(progress),
+                               print_func=_lines(progress, label) if callable(progress) else None,
                                checkpoint_file=None if checkpoint is None else str(checkpoint),
                                checkpoint_every=settings.checkpoint_every,
                                resume=bool(resume and checkpoint is not None and checkpoint.exists()))

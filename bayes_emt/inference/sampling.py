@@ -458,11 +458,34 @@ class _Phases:
         return starts[-1] if starts else 0
 
 
+#: seconds between progress lines when ``progress`` is a callable (output redirected)
+PROGRESS_EVERY_S = 5.0
+#: steps a run makes before a ``deadline`` may stop it (the chain must be long enough to summarise)
+MIN_STEPS_BEFORE_DEADLINE = 100
+
+
+class _Lines:
+    """Progress as periodic lines (``tell(str)`` at most every :data:`PROGRESS_EVERY_S` seconds):
+    the tqdm bar's counterpart when the output is not a terminal."""
+
+    def __init__(self, tell, label: str, total: int):
+        self.tell, self.label, self.total = tell, label, total
+        self.t0 = self.last = time.monotonic()
+        self.postfix = ""
+
+    def tick(self, n: int, force: bool = False) -> None:
+        now = time.monotonic()
+        if self.tell is not None and (force or now - self.last >= PROGRESS_EVERY_S):
+            self.last = now
+            self.tell(f"emcee {self.label}: step {n}/{self.total}{self.postfix} ({now - self.t0:.0f} s)")
+
+
 def _run_locked(target, start, seed, max_steps, checkpoint, resume, overwrite, progress, settings, ident,
-                nwalkers, ndim):
+                nwalkers, ndim, deadline=None):
     """The body of :func:`run_ensemble`, run while holding the checkpoint's lock."""
     store = _open_store(checkpoint, resume, overwrite, ident, nwalkers, ndim, settings.reseed_every)
-    progress = sys.stderr.isatty() if progress is None else bool(progress)
+    lines = _Lines(progress if callable(progress) else None, target.label, max_steps)
+    progress = sys.stderr.isatty() if progress is None else (False if callable(progress) else bool(progress))
     from tqdm.auto import tqdm
 
     bar = tqdm(total=max_steps, initial=min(store.iteration, max_steps), disable=not progress,
@@ -470,6 +493,7 @@ def _run_locked(target, start, seed, max_steps, checkpoint, resume, overwrite, p
     history: list[dict] = []
     verdict = None
     tau_cache: dict = {}
+    stopped = None
     try:
         z0 = start(nwalkers) if store.iteration == 0 else None
         phases = _Phases(target, nwalkers, store, settings.warmup)
@@ -477,12 +501,20 @@ def _run_locked(target, start, seed, max_steps, checkpoint, resume, overwrite, p
             while True:
                 n = store.iteration
                 sampler = phases.at(n)
-                if n > 0 and (n % settings.check_every == 0 or n >= max_steps):
+                late = (deadline is not None and n >= MIN_STEPS_BEFORE_DEADLINE
+                        and time.monotonic() >= deadline)
+                if n > 0 and (n % settings.check_every == 0 or n >= max_steps or late):
                     verdict = stopping_rule(store.get_chain(), n, settings, phases.start(n), tau_cache)
                     history.append(verdict)
                     bar.set_postfix(tau_max=f"{verdict['tau_max']:.0f}", n_tau=f"{verdict['n_over_tau']:.0f}",
                                     ess=f"{verdict['ess_min']:.0f}")
+                    lines.postfix = (f", tau_max {verdict['tau_max']:.0f}, {verdict['n_over_tau']:.0f} tau, "
+                                     f"min ESS {verdict['ess_min']:.0f}")
                     if verdict["converged"] or n >= max_steps:
+                        break
+                    if late:
+                        stopped = n
+                        lines.tick(n, force=True)
                         break
                 held.check()
                 block = n // settings.reseed_every
@@ -493,8 +525,9 @@ def _run_locked(target, start, seed, max_steps, checkpoint, resume, overwrite, p
                     state = store.get_last_sample()
                     state.random_state = _block_state(seed, block)
                 # emcee's run_mcmc, a step at a time, acting on a held signal between steps
-                for _ in sampler.sample(state, iterations=seg, skip_initial_state_check=n > 0):
+                for i, _ in enumerate(sampler.sample(state, iterations=seg, skip_initial_state_check=n > 0)):
                     held.check()
+                    lines.tick(n + i + 1)
                 store.flush()
                 bar.update(seg)
     except BaseException as exc:
@@ -506,18 +539,24 @@ def _run_locked(target, start, seed, max_steps, checkpoint, resume, overwrite, p
         raise
     finally:
         bar.close()
-    return store, verdict, history, phases, tau_cache
+    return store, verdict, history, phases, tau_cache, stopped
 
 
 def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, max_steps: int | None = None,
                  checkpoint: str | Path | None = None, resume: bool = False, overwrite: bool = False,
-                 progress: bool | None = None, settings: SamplerSettings = SamplerSettings()) -> dict:
+                 progress: bool | None | Callable[[str], None] = None,
+                 settings: SamplerSettings = SamplerSettings(), deadline: float | None = None) -> dict:
     """Run the ensemble sampler on any ``target`` to the stopping rule (module docstring).
 
     ``target`` has ``params`` (ParamSet with priors), ``ndim``, ``label``, ``identity()`` (what a
     checkpoint must match) and ``emcee_log_prob``
     (:class:`~bayes_emt.inference.likelihood.SamplingSpaceDensity`);
     ``start(nwalkers)`` returns the walkers' sampling-space start (only called for a fresh run).
+    ``progress``: a tqdm bar on stderr (``None``: when stderr is a terminal), or a ``callable(str)``
+    told the step, tau and ESS every :data:`PROGRESS_EVERY_S` seconds (for redirected output).
+    ``deadline``: a :func:`time.monotonic` instant; at the first block boundary past it (and after
+    :data:`MIN_STEPS_BEFORE_DEADLINE` steps) the run stops with what it has, its convergence verdict
+    judged on that chain and its message saying the time budget stopped it.
     Returns the chain ``(steps, walkers, k)``, ``log_prob``, ``blobs``, ``tau``, ``burn``, the
     verdict, its message and history, and the keyword arguments :meth:`Posterior.from_chain`
     takes besides them.
@@ -534,13 +573,16 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
     ident = _run_identity(target, seed, nwalkers, settings)
     lock = None if checkpoint is None else CheckpointLock(checkpoint).acquire()
     try:
-        store, verdict, history, phases, tau_cache = _run_locked(
+        store, verdict, history, phases, tau_cache, stopped = _run_locked(
             target, start, seed, max_steps, checkpoint, resume, overwrite, progress, settings, ident,
-            nwalkers, ndim)
+            nwalkers, ndim, deadline)
     finally:
         if lock is not None:
             lock.release()
     message = _verdict_message(verdict, max_steps, settings)
+    if stopped is not None:
+        message = message.replace(f"not converged within {max_steps} steps", "not converged: stopped by the "
+                                  f"time budget at step {stopped} of {max_steps}")
     chain = store.get_chain()
     s0 = phases.start(chain.shape[0])
     cached = tau_cache.get((s0, chain.shape[0] - s0))
@@ -566,10 +608,13 @@ def run_ensemble(target, start: Callable[[int], np.ndarray], *, seed: int = 0, m
 
 def sample_likelihood(lik: Likelihood, *, fit: FitResult | None = None, seed: int = 0,
                       max_steps: int | None = None, checkpoint: str | Path | None = None,
-                      resume: bool = False, overwrite: bool = False, progress: bool | None = None,
-                      settings: SamplerSettings = SamplerSettings()) -> Posterior:
+                      resume: bool = False, overwrite: bool = False,
+                      progress: bool | None | Callable[[str], None] = None,
+                      settings: SamplerSettings = SamplerSettings(),
+                      deadline: float | None = None) -> Posterior:
     """Sample the posterior defined by a :class:`~bayes_emt.inference.likelihood.Likelihood` (its model,
-    data, priors and noise model); arguments as :func:`sample_posterior`."""
+    data, priors and noise model); arguments as :func:`sample_posterior`, ``progress`` and
+    ``deadline`` as :func:`run_ensemble`."""
     t0 = time.perf_counter()
 
     def start(nwalkers):
@@ -581,17 +626,19 @@ def sample_likelihood(lik: Likelihood, *, fit: FitResult | None = None, seed: in
         return initial_walkers(lik, fit, nwalkers, np.random.default_rng(seed))
 
     run = run_ensemble(lik, start, seed=seed, max_steps=max_steps, checkpoint=checkpoint, resume=resume,
-                       overwrite=overwrite, progress=progress, settings=settings)
+                       overwrite=overwrite, progress=progress, settings=settings, deadline=deadline)
     run["wall_time"] = time.perf_counter() - t0
     return Posterior.from_chain(lik, **run)
 
 
 def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None = None, seed: int = 0,
                      max_steps: int | None = None, checkpoint: str | Path | None = None,
-                     resume: bool = False, overwrite: bool = False, progress: bool | None = None,
+                     resume: bool = False, overwrite: bool = False,
+                     progress: bool | None | Callable[[str], None] = None,
                      likelihood: LikelihoodKind = "gaussian", nu: float | None = 4.0,
                      noise_params: ParamSet | None = None, noise: NoiseKind | None = None,
-                     settings: SamplerSettings = SamplerSettings()) -> Posterior:
+                     settings: SamplerSettings = SamplerSettings(),
+                     deadline: float | None = None) -> Posterior:
     """Sample the posterior of ``model`` given ``meas`` with emcee (see the module docstring).
 
     Parameters
@@ -605,7 +652,8 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
     checkpoint : HDF5 file for emcee's backend; ``None`` keeps the chain in memory.
     resume : continue the run stored in ``checkpoint`` (same model, priors, data, seed).
     overwrite : replace an existing ``checkpoint`` (otherwise that raises: it may hold a long run).
-    progress : tqdm progress bar on stderr (default: when stderr is a terminal).
+    progress : tqdm progress bar on stderr (default: when stderr is a terminal), or a
+        ``callable(str)`` told the step, tau and ESS every few seconds (:func:`run_ensemble`).
     likelihood, nu : ``"gaussian"``, or ``"student"`` with ``nu`` degrees of freedom (``None``:
         sampled).
     noise_params : noise priors (default :func:`~bayes_emt.inference.likelihood.noise_param_set`).
@@ -613,6 +661,8 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
         only choice with the Student-t likelihood) or ``"correlated"`` (instrument noise plus a model
         discrepancy correlated over log-frequency, :mod:`bayes_emt.inference.discrepancy`).
     settings : :class:`SamplerSettings`.
+    deadline : a :func:`time.monotonic` instant at which the run stops with the chain it has
+        (:func:`run_ensemble`; ``converged`` False, the message says the time budget stopped it).
 
     Returns
     -------
@@ -624,4 +674,5 @@ def sample_posterior(meas: Measurement, model: Model, *, fit: FitResult | None =
         noise = "white"
     lik = Likelihood(model, meas, likelihood, nu, noise_params, noise)
     return sample_likelihood(lik, fit=fit, seed=seed, max_steps=max_steps, checkpoint=checkpoint,
-                             resume=resume, overwrite=overwrite, progress=progress, settings=settings)
+                             resume=resume, overwrite=overwrite, progress=progress, settings=settings,
+                             deadline=deadline)

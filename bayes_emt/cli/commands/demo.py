@@ -22,13 +22,17 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import sys
+import threading
 import time
 import warnings
 from pathlib import Path
 
 from ..paths import check_outputs
 from ._common import add_output_args, add_parser, int_at_least, print_table, print_warning_lines, seed
+from ._demo_budget import MIN_STEP_S, SHARES, Budget, Heartbeat, budget_split
+from ._demo_budget import budget_seconds as _budget_seconds
 
 EXAMPLES = """\
 bayes-emt demo --quick  (about 2 min: fewer models, short chains; the report says what it cut)
@@ -42,9 +46,13 @@ FULL = {"models": ("I", "II", "III", "UD", "NL", "UL"), "hankel": True,
         "loo": True, "bridge_seeds": 2}
 QUICK = {"models": ("I", "II", "NL"), "hankel": False, "methods": ("laplace", "bridge"), "max_steps": 300,
          "screen_steps": 0, "draws": 200, "loo": False, "bridge_seeds": 1}
-#: wall seconds the robust shunt's choice may take in a demo run (the rest of the chain and the
-#: report are written whatever it does)
+#: wall seconds the robust shunt's choice may take in a demo run without a time budget (the rest of
+#: the chain and the report are written whatever it does)
 ROBUST_SHARE_S = 60.0
+#: --time-budget's default with --data [s, wall clock]; the bundled demo runs without one unless given
+DATA_BUDGET_S = 300.0
+#: seconds without a printed line after which a redirected demo says which step is still running
+HEARTBEAT_S = 5.0
 #: steps --skip may leave out
 SKIPPABLE = ("robust_shunt", "diagnose")
 #: what the demo writes into its --out folder (besides fit_<MODEL>.json, evidence_runs/, diagnosis/)
@@ -83,12 +91,22 @@ def register(sub) -> None:
                    "chains, no Hankel ring choice, 200 draws for the robust shunt (the report says what "
                    "was cut)")
     p.add_argument("--data", default=None, help="measurement file instead of the bundled paper_bench.csv")
+    p.add_argument("--freq-unit", choices=["hz", "rad/s"], default=None,
+                   help="frequency column unit of --data and --concealed, when the file does not say")
+    p.add_argument("--phase-unit", choices=["deg", "rad"], default=None,
+                   help="phase column unit of --data and --concealed, when the file does not say")
     p.add_argument("--concealed", default=None, metavar="FILE",
                    help="recording to diagnose instead of the bundled concealed_bench.csv")
     p.add_argument("--seed", type=seed, default=0,
                    help="seed of every stochastic step, a non-negative integer (default 0)")
     p.add_argument("--max-steps", type=int_at_least(1), default=None,
                    help="emcee step budget per model (default 20000; --quick 300)")
+    p.add_argument("--time-budget", type=_budget_seconds, default=None, metavar="SECONDS",
+                   help="wall-clock seconds for the whole run, shared between its steps "
+                   f"({budget_split().replace('%', '%%')}); "
+                   "a step that reaches the end of its share stops with what it has, says so in one line "
+                   "and in the report's warnings, and the report is always written. Default "
+                   f"{DATA_BUDGET_S:g} s with --data, none on the bundled data; 0 = none")
     p.add_argument("--skip", default=None, metavar="STEPS",
                    help=f"comma-separated steps to leave out ({', '.join(SKIPPABLE)}); the report says so")
     add_output_args(p, progress=True)
@@ -98,18 +116,50 @@ def register(sub) -> None:
 class _Demo:
     """The demo's state: output folder, printing, and the step log that becomes run.json."""
 
-    def __init__(self, args):
+    def __init__(self, args, budget: float | None = None):
         self.args = args
         self.out = Path(args.out)
         self.steps: list[dict] = []
         self.warnings: list[str] = []
+        self.cuts: list[str] = []
         self.t0 = time.perf_counter()
+        self.budget = Budget(budget)
+        self._lock = threading.Lock()
+        self._said = self._stage_t0 = time.monotonic()
+        self.stage = "start"
 
     def say(self, text: str = "") -> None:
         if not self.args.quiet:
-            print(text, flush=True)
+            with self._lock:
+                print(text, flush=True)
+                self._said = time.monotonic()
+
+    def heartbeat(self) -> Heartbeat:
+        """While it is entered, a line names the step still running whenever a redirected run
+        printed nothing for :data:`HEARTBEAT_S` seconds (none on a terminal or with --quiet)."""
+        on = not (self.args.quiet or sys.stderr.isatty())
+        return Heartbeat(lambda: self._said, lambda: (self.stage, self._stage_t0), self.say, HEARTBEAT_S, on)
+
+    def cut(self, step: str, what: str) -> None:
+        """A step the time budget cut: one line now, a warning and an entry of what the run did not do."""
+        share = self.budget.share(step)
+        text = (f"{step}: cut by the time budget ({self.budget.total:g} s, this step's share "
+                f"{share:.0f} s): {what}")
+        self.say(f"[{step}] {text}")
+        self.warnings.append(text)
+        self.cuts.append(text)
+
+    def progress(self):
+        """What the samplers get as ``progress``: bars on a terminal, else a line every few seconds
+        (False with --quiet)."""
+        if self.args.quiet:
+            return False
+        if sys.stderr.isatty():
+            return True
+        return lambda msg: self.say("  " + msg)
 
     def section(self, title: str) -> None:
+        self.stage, self._stage_t0 = title.split(":")[0].split(" (")[0], time.monotonic()
         self.say(f"\n== {title} " + "=" * max(0, 70 - len(title)))
 
     def step(self, name: str, status: str, detail: str = "", seconds: float | None = None) -> None:
@@ -158,19 +208,25 @@ def run(args) -> int:
     if args.max_steps is not None:
         cfg["max_steps"] = args.max_steps
         cfg["screen_steps"] = min(cfg["screen_steps"], args.max_steps)
-    d = _Demo(args)
+    budget = DATA_BUDGET_S if args.time_budget is None and args.data else args.time_budget
+    d = _Demo(args, budget or None)
     out = d.out
     check_outputs(inputs=[("--data", args.data), ("--concealed", args.concealed)],
                   folders=[("--out", out, OUTPUTS)])
     out.mkdir(parents=True, exist_ok=True)
-    meas = be.read(args.data) if args.data else be.load_paper_bench()
-    concealed = be.read(args.concealed) if args.concealed else be.load_concealed_bench()
+    units = {"freq_unit": getattr(args, "freq_unit", None), "phase_unit": getattr(args, "phase_unit", None)}
+    meas = be.read(args.data, **units) if args.data else be.load_paper_bench()
+    concealed = be.read(args.concealed, **units) if args.concealed else be.load_concealed_bench()
     truth = meas.meta.get("written_meta", {}).get("truth") if not args.data else None
     run_rec = {"title": "bayes_emt demo" + (" (--quick)" if args.quick else ""), "quick": bool(args.quick),
                "seed": args.seed, "cut": list(QUICK_CUTS) if args.quick else list(FULL_CUTS),
                "data": [_recording_summary(meas, "main chain: fits, evidence, posterior, shunts"),
                         _recording_summary(concealed, "diagnosis")],
-               "diagnosed": str(concealed.source), "truth": truth}
+               "diagnosed": str(concealed.source), "truth": truth,
+               "time_budget_s": d.budget.total, "budget_shares": dict(SHARES) if d.budget.total else None}
+    if d.budget.total:
+        d.say(f"time budget: {d.budget.total:g} s wall clock ({budget_split(d.budget.total)}); a step that "
+              "reaches the end of its share stops there and says so")
     if args.quick:
         d.say("--quick: " + " ".join(QUICK_CUTS))
 
@@ -180,30 +236,34 @@ def run(args) -> int:
               f"{r['f_min_hz']:.4g}..{r['f_max_hz']:.4g} Hz "
               f"({r['omega_min']:.4g}..{r['omega_max']:.4g} rad/s)")
 
-    fits = _fits(d, meas, cfg, truth)
-    _hankel(d, meas, cfg)
-    preferred, cmp = _evidence(d, meas, fits, cfg)
-    post = _posterior(d, cmp, preferred, fits)
-    _shunts(d, fits)
-    if "robust_shunt" in skip:
-        d.step("robust_shunt", "skipped", "--skip robust_shunt was given")
-    else:
-        _robust(d, post, fits.get(preferred), cfg)
-    if "diagnose" in skip:
-        d.step("diagnose", "skipped", "--skip diagnose was given")
-    else:
-        _diagnose(d, concealed, preferred)
+    with d.heartbeat():
+        fits = _fits(d, meas, cfg, truth)
+        _hankel(d, meas, cfg)
+        preferred, cmp = _evidence(d, meas, fits, cfg)
+        post = _posterior(d, cmp, preferred, fits)
+        _shunts(d, fits, preferred)
+        if "robust_shunt" in skip:
+            d.step("robust_shunt", "skipped", "--skip robust_shunt was given")
+        else:
+            _robust(d, post, fits.get(preferred), cfg, d.out / f"fit_{preferred}.json")
+        if "diagnose" in skip:
+            d.step("diagnose", "skipped", "--skip diagnose was given")
+        else:
+            _diagnose(d, concealed, preferred)
 
-    unconverged = [s for s in d.steps if s["name"] == "sample" and "NOT CONVERGED" in s["detail"]]
-    if unconverged:
-        d.warnings.append("the preferred model's posterior did not converge"
-                          + (" (--quick runs 300-step chains: expected; the full demo runs them to "
-                             "convergence)" if args.quick else "") + ": its intervals, the evidence and the "
-                          "robust shunt drawn from it are not to be trusted")
-    run_rec.update(steps=d.steps, warnings=d.warnings, total_seconds=time.perf_counter() - d.t0,
-                   preferred_model=preferred)
-    write_json(out / "run.json", run_rec)
-    report = build_report(out)
+        unconverged = [s for s in d.steps if s["name"] == "sample" and "NOT CONVERGED" in s["detail"]]
+        if unconverged:
+            d.warnings.append("the preferred model's posterior did not converge"
+                              + (" (--quick runs 300-step chains: expected; the full demo runs them to "
+                                 "convergence)" if args.quick else "") + ": its intervals, the evidence and "
+                              "the robust shunt drawn from it are not to be trusted")
+        run_rec["cut"] += d.cuts
+        run_rec.update(steps=d.steps, warnings=d.warnings, total_seconds=time.perf_counter() - d.t0,
+                       preferred_model=preferred)
+        write_json(out / "run.json", run_rec)
+        d.stage, d._stage_t0 = "writing the report", time.monotonic()
+        d.say("writing the report ...")
+        report = build_report(out)
     d.section("outputs")
     for f in sorted(out.iterdir()):
         if f.is_file():
@@ -229,11 +289,18 @@ def _fits(d: _Demo, meas, cfg, truth) -> dict:
 
     d.section("least-squares fits: automatic initial estimate + two-step least squares")
     fits, rows, t_all = {}, [], time.perf_counter()
-    for name in _progress(d, cfg["models"], "fits"):
+    models = list(cfg["models"])
+    for i, name in enumerate(_progress(d, models, "fits")):
+        if fits and d.budget.over("fit"):
+            d.cut("fit", f"{', '.join(models[i:])} not fitted (nor compared, nor designed for)")
+            break
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             fit = be.fit(meas, name)
         fits[name] = fit
+        if not d.args.quiet and not sys.stderr.isatty():
+            d.say(f"  {fit.model.label}: rms rel. residual {100 * fit.rms_rel_residual:.3f} % "
+                  f"({fit.info['seconds']:.1f} s)")
         p = fit.parameters
         rows.append((fit.model.label, f"{100 * fit.rms_rel_residual:.3f}", f"{p['zeta']:.4g}",
                      f"{p['omega0']:.4g}", f"{p['phi']:.4g}", f"{p['R0']:.4g}", f"{fit.info['seconds']:.1f}"))
@@ -267,7 +334,13 @@ def _hankel(d: _Demo, meas, cfg) -> int:
     if not cfg["hankel"]:
         d.step("hankel", "skipped", "--quick: NL ring count not chosen by Hankel singular values; n = 5 used")
         return 5
+    if d.budget.over("hankel"):
+        d.cut("hankel", "the NL ring count was not checked by Hankel singular values (an NL(7) fit); "
+              "n = 5 used")
+        d.step("hankel", "skipped", "cut by the time budget; n = 5 used")
+        return 5
     d.section("NL ring count by Hankel singular values (fit with 7 rings)")
+    d.say("  fitting NL(7) ...")
     t = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -316,8 +389,8 @@ def _evidence(d: _Demo, meas, fits, cfg):
                 warnings.simplefilter("ignore")
                 parts.append(be.compare(meas, group, seed=d.args.seed, methods=cfg["methods"], loo=cfg["loo"],
                                         max_steps=steps, results=work / f"comparison_{tag}.json",
-                                        workdir=work, progress=not d.args.quiet and sys.stderr.isatty(),
-                                        on_model=show))
+                                        workdir=work, progress=d.progress(), on_model=show,
+                                        deadline=d.budget.deadline("evidence")))
         except Exception as exc:  # noqa: BLE001 - an estimator failure must not lose the run
             msg = _one_line(exc)
             d.warnings.append(f"evidence of {', '.join(group)} failed ({msg}): those models are missing from "
@@ -330,6 +403,7 @@ def _evidence(d: _Demo, meas, fits, cfg):
                time.perf_counter() - t)
         return by_rms, None
     cmp = parts[0].merged(*parts[1:])
+    _evidence_cuts(d, cmp)
     order = {n: i for i, n in enumerate(fits)}
     cmp = dataclasses.replace(cmp, models=tuple(sorted(cmp.models, key=lambda m: order.get(m.name, 99))),
                               settings={"seed": d.args.seed, "methods": list(cfg["methods"]),
@@ -347,6 +421,26 @@ def _evidence(d: _Demo, meas, fits, cfg):
     d.say(f"preferred: {best} ({cmp.to_json_dict()['best_verdict'] or 'no verdict'})")
     d.step("compare", "ran", f"{', '.join(cfg['methods'])} for {', '.join(fits)}", time.perf_counter() - t)
     return best, cmp
+
+
+def _evidence_cuts(d: _Demo, cmp) -> None:
+    """Name what the time budget cut in the evidence step: chains stopped before their rule,
+    nested sampling not run."""
+    from ...evidence.compare import LOO_CUT_NOTE, NESTED_CUT_NOTE
+
+    stopped = {m.name: re.search(r"stopped by the time budget at step (\d+)", w)[1]
+               for m in cmp.models for w in m.warnings if "stopped by the time budget at step" in w}
+    if stopped:
+        d.cut("evidence", "emcee stopped before its convergence rule for " + ", ".join(
+            f"{name} (step {step})" for name, step in stopped.items())
+            + ": their bridge-sampling log Z and the posterior drawn from them are not converged")
+    no_nested = [m.name for m in cmp.models if any(w.startswith(NESTED_CUT_NOTE) for w in m.warnings)]
+    if no_nested:
+        d.cut("evidence", f"no nested-sampling cross-check of {', '.join(no_nested)} (log Z by bridge "
+              "sampling alone)")
+    no_loo = [m.name for m in cmp.models if any(w.startswith(LOO_CUT_NOTE) for w in m.warnings)]
+    if no_loo:
+        d.cut("evidence", f"no PSIS-LOO of {', '.join(no_loo)}")
 
 
 def _posterior(d: _Demo, cmp, preferred: str, fits):
@@ -379,7 +473,7 @@ def _posterior(d: _Demo, cmp, preferred: str, fits):
     return post
 
 
-def _shunts(d: _Demo, fits) -> None:
+def _shunts(d: _Demo, fits, preferred: str | None = None) -> None:
     from ... import api as be
     from ...io.paramfile import write_json
     from ...shunt import evaluate_rc_shunt
@@ -389,7 +483,15 @@ def _shunts(d: _Demo, fits) -> None:
     t = time.perf_counter()
     rows, designs = [], {}
     ref = fits[best]
-    for name, fit in fits.items():
+    # the preferred and the best-fitting model's designs first: a time budget cuts the others
+    order = sorted(fits, key=lambda k: (k != preferred, k != best))
+    for i, name in enumerate(order):
+        fit = fits[name]
+        if designs and d.budget.over("shunt"):
+            d.cut("shunt", f"no RC shunt designed for {', '.join(order[i:])} (designed: "
+                  f"{', '.join(designs)})")
+            break
+        d.say(f"  designing the RC shunt of {fit.model.label} ...")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             dsg = be.design_shunt(fit)
@@ -397,6 +499,8 @@ def _shunts(d: _Demo, fits) -> None:
         designs[name] = {**dsg.to_json_dict(), f"evaluated_on_{best}": ev.to_json_dict()}
         rows.append((fit.model.label, f"{dsg.Rs:.4f}", f"{dsg.Cs:.4g}", f"{dsg.attenuation_db:.2f}",
                      f"{ev.attenuation_db:.2f}" if ev.stable else "UNSTABLE", f"{ev.stability_margin:.3f}"))
+    rows = [rows[list(designs).index(k)] for k in fits if k in designs]  # back in the fits' order
+    designs = {k: designs[k] for k in fits if k in designs}
     if not d.args.quiet:
         print_table(rows, ("design model", "Rs [ohm]", "Cs [F]", "own model [dB]", f"on {best} [dB]",
                            f"margin on {best} [ohm]"))
@@ -404,7 +508,59 @@ def _shunts(d: _Demo, fits) -> None:
     d.step("shunt", "ran", f"{len(designs)} designs", time.perf_counter() - t)
 
 
-def _robust(d: _Demo, post, fit, cfg) -> None:
+def _robust(d: _Demo, post, fit, cfg, fit_file=None) -> None:
+    """The robust shunt over the preferred posterior's draws. Without a time budget, here, its choice
+    limited to :data:`ROBUST_SHARE_S`. With one, in a worker process (reading the saved posterior
+    and fit) that is ended at the step's deadline: every draw's own design, before the choice, cannot
+    be stopped from within (one draw whose batched design does not settle is designed alone, seconds
+    each); the step is then named as cut and the rest of the run goes on."""
+    if post is None:
+        d.step("robust_shunt", "skipped", "no posterior")
+        return
+    d.section(f"robust RC shunt over {cfg['draws']} posterior draws of {post.model.label}")
+    t = time.perf_counter()
+    progress = not getattr(d.args, "quiet", False)
+    try:
+        if d.budget.total is None:
+            summary, warns = _robust_design(d.out, post, fit, cfg["draws"], d.args.seed, ROBUST_SHARE_S,
+                                            progress)
+        else:
+            left = d.budget.left("robust_shunt", MIN_STEP_S)
+            # the choice gets what the per-draw designs leave, less the few seconds of saving and figures
+            choice = max(1.0, left - ROBUST_SAVE_S)
+            from ..._procs import ProcessPool
+
+            with ProcessPool(1, step="the robust shunt") as pool:
+                task = pool.submit(_robust_worker, str(d.out), str(d.out / "posterior.nc"),
+                                   None if fit_file is None else str(fit_file), cfg["draws"], d.args.seed,
+                                   choice, progress)
+                try:
+                    summary, warns = task.result(timeout=left)
+                except TimeoutError:
+                    pool.stop_workers()
+                    d.cut("robust_shunt", f"not finished in the {left:.0f} s left to it (every posterior "
+                          "draw's own design comes first, some draws one at a time): no robust shunt in this "
+                          "run; bayes-emt shunt --posterior on the saved posterior.nc designs it")
+                    d.step("robust_shunt", "skipped", "cut by the time budget: not finished in its share",
+                           time.perf_counter() - t)
+                    return
+    except Exception as exc:  # noqa: BLE001 - a feature step that fails must not lose the rest of the run
+        d.failed("robust_shunt", exc, t)
+        return
+    d.say(summary)
+    d.step("robust_shunt", "ran", f"{cfg['draws']} draws", time.perf_counter() - t)
+    # its own time budget's warning (``shunt.robust``: "the robust choice stopped at its time budget")
+    budget_notes = [w for w in warns if "stopped at its time budget" in w]
+    if d.budget.total is not None and budget_notes:
+        d.cut("robust_shunt", "its choice stopped early: " + budget_notes[0].splitlines()[0])
+
+
+#: seconds a budgeted robust-shunt step keeps for saving its result and figures after the choice
+ROBUST_SAVE_S = 8.0
+
+
+def _robust_design(out, post, fit, n_draws: int, seed: int, choice_budget: float, progress: bool):
+    """``be.robust_shunt`` on ``post``, saved with its figures into ``out``; its summary and warnings."""
     from ... import api as be
     from ...plotting import save_figure
     from ...plotting.robust_shunt import (
@@ -413,28 +569,26 @@ def _robust(d: _Demo, post, fit, cfg) -> None:
         plot_stability_boundary,
     )
 
-    if post is None:
-        d.step("robust_shunt", "skipped", "no posterior")
-        return
-    d.section(f"robust RC shunt over {cfg['draws']} posterior draws of {post.model.label}")
-    t = time.perf_counter()
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            # its share of the run: the robust choice stops there and says so (the report is written)
-            res = be.robust_shunt(post, nominal=fit, n_draws=cfg["draws"], seed=d.args.seed,
-                                  boundary_points=24, progress=not getattr(d.args, "quiet", False),
-                                  time_budget=ROBUST_SHARE_S)
-        res.save(d.out / "robust_shunt.json")
-        for name, plot in (("shunt_robust_gain.png", plot_gain_bands),
-                           ("shunt_robust_distributions.png", plot_attenuation_distributions),
-                           ("shunt_robust_boundary.png", plot_stability_boundary)):
-            save_figure(plot(res.detail), d.out / name, dpi=100)
-    except Exception as exc:  # noqa: BLE001 - a feature step that fails must not lose the rest of the run
-        d.failed("robust_shunt", exc, t)
-        return
-    d.say(res.summary())
-    d.step("robust_shunt", "ran", f"{cfg['draws']} draws", time.perf_counter() - t)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = be.robust_shunt(post, nominal=fit, n_draws=n_draws, seed=seed, boundary_points=24,
+                              progress=progress, time_budget=choice_budget)
+    res.save(Path(out) / "robust_shunt.json")
+    for name, plot in (("shunt_robust_gain.png", plot_gain_bands),
+                       ("shunt_robust_distributions.png", plot_attenuation_distributions),
+                       ("shunt_robust_boundary.png", plot_stability_boundary)):
+        save_figure(plot(res.detail), Path(out) / name, dpi=100)
+    return res.summary(), [str(w) for w in res.warnings]
+
+
+def _robust_worker(out: str, post_file: str, fit_file: str | None, n_draws: int, seed: int,
+                   choice_budget: float, progress: bool):
+    """:func:`_robust_design` in a worker process, from the saved posterior and fit."""
+    from ... import api as be
+
+    post = be.load(post_file)
+    fit = be.load(fit_file) if fit_file and Path(fit_file).exists() else None
+    return _robust_design(out, post, fit, n_draws, seed, choice_budget, progress)
 
 
 def _diagnose(d: _Demo, meas, model: str) -> None:
@@ -453,10 +607,11 @@ def _diagnose(d: _Demo, meas, model: str) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             fit = be.fit(meas, model)
-            # no time budget: the diagnosis must not depend on how fast or busy the machine is (under
-            # load the default 240 CPU s ran out before second_resonance was tried)
+            # without a demo budget, none: the diagnosis must not depend on how fast or busy the machine
+            # is (under load the default 240 s ran out before second_resonance was tried)
+            share = d.budget.left("diagnose", MIN_STEP_S)
             diag = be.diagnose(meas, fit=fit, seed=d.args.seed, max_rounds=1 if d.args.quick else 4,
-                               time_budget=None,
+                               time_budget=share,
                                progress=None if d.args.quiet else (lambda msg: d.say("  " + msg)))
         diag.save(d.out / "diagnosis.json")
         folder = d.out / "diagnosis"
@@ -467,6 +622,9 @@ def _diagnose(d: _Demo, meas, model: str) -> None:
         d.failed("diagnose", exc, t)
         return
     d.step("diagnose", "ran", str(meas.source), time.perf_counter() - t)
+    if share is not None and diag.budget_hit:
+        w = next(w for w in diag.warnings if "time budget" in w)
+        d.cut("diagnose", f"its search stopped after the {share:.0f} s left to it: {w.splitlines()[0]}")
     if diag.search_note:
         d.say(f"  {diag.search_note}")
     for f in diag.findings:
