@@ -26,6 +26,7 @@ import numpy as np
 from scipy import optimize
 
 from bayes_emt.estimation.fitting import fit_admittance
+from bayes_emt.estimation.plateau import plateau_reading
 from bayes_emt.inference.sampling import sample_posterior
 from bayes_emt.io import read_measurement
 from bayes_emt.io.phase import drop_phase
@@ -35,7 +36,6 @@ from bayes_emt.thiele_small.bode import minimum_phase_partner, phase_departure
 from bayes_emt.thiele_small.compute import TS_SAMPLER, _ts_sampler
 from bayes_emt.thiele_small.curve import fit_curve
 from bayes_emt.thiele_small.model_free import model_free_ts
-from bayes_emt.thiele_small.plateau import plateau_reading
 from bayes_emt.thiele_small.relations import free_air
 
 REAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "realdata"
