@@ -23,6 +23,7 @@ import threading
 import time
 import warnings
 
+from .._procs import process_age
 from ..errors import BayesEMTError, Interrupted
 from . import commands
 
@@ -92,6 +93,10 @@ def _main(argv: list[str] | None) -> int:
         return 2
     warnings.showwarning = _showwarning
     t0 = time.perf_counter()
+    # where a command's wall-clock budget counts from: the process's start when this is the program
+    # (the interpreter's start and the imports are part of the user's wait), the call otherwise (a
+    # notebook, a test session or a script calling main() many times: its age is not this command's)
+    args.started_at = time.monotonic() - (process_age() if argv is None else 0.0)
     try:
         rc = args.func(args)
         if getattr(args, "verbose", False):

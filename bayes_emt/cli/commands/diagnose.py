@@ -119,9 +119,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    import time
 
-    from ..._procs import process_age
     from ...discovery import diagnose
     from ...io import read_measurement
     from ..paths import check_outputs
@@ -163,7 +161,7 @@ def run(args) -> int:
         seed=args.seed,
         max_rounds=args.max_rounds,
         time_budget=args.time_budget or None,
-        budget_start=time.monotonic() - process_age(),
+        budget_start=getattr(args, "started_at", None),
         setup=args.setup,
         exclude_band=args.exclude_band,
         workers=args.workers,
