@@ -172,6 +172,9 @@ def _run(todo: list[BatchInput], out: Path, settings, scheduler, workers, progre
                 on_outcome(res)
             write_summary(all_inputs, out, jobs=settings.jobs, model=settings.model)
     except KeyboardInterrupt:  # SIGINT or SIGTERM: end the local workers now, not after their files
+        # the client's comms close under it: distributed logs each with a traceback (at INFO) on
+        # stderr, where the user is owed one line ("interrupted"); nothing it would say helps now
+        logging.getLogger("distributed").setLevel(logging.CRITICAL + 1)
         if cluster is not None:
             _kill_local_workers(cluster)
         raise
