@@ -284,9 +284,9 @@ def robust_shunt(posteriors, *, weights: str | Sequence[float] = "evidence",
     if isinstance(epsilon, str):
         if epsilon != "auto":
             raise ValueError(f'epsilon must be a number in [0, 1) or "auto", got {epsilon!r}')
-        halves = split_halves([g for g in groups if g.n > 0], seed=seed)
+        live = [g for g in groups if g.n > 0]
         unseen = {g.label: (g.available - d.size if g.available >= g.n else 0)
-                  for g, (d, _) in zip([g for g in groups if g.n > 0], halves, strict=True)}
+                  for g, (d, _) in zip(live, split_halves(live, seed=seed), strict=True)}
         epsilon, eps_choice = auto_epsilon(unseen, confidence, ess)
     if nominal is not None and not isinstance(nominal, tuple):
         nominal = (nominal.model, np.asarray(nominal.theta, float), f"fit ({nominal.model.label})")

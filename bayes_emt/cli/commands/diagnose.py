@@ -119,7 +119,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-
     from ...discovery import diagnose
     from ...io import read_measurement
     from ..paths import check_outputs
