@@ -153,6 +153,34 @@ def test_stopping_rule_is_a_pure_function_of_the_chain():
     assert not strict["converged"] and not strict["ess_reached"]
 
 
+def test_tau_margin_accepts_a_moving_tau_only_when_length_and_ess_hold_with_it_enlarged():
+    # AR(1) walkers, tau = 19: at 1000 steps the estimate still moves by more than a tolerance of
+    # 0.1 % between checks 100 apart, while the chain is 50 tau long with an ESS of about 1000
+    rng = np.random.default_rng(1)
+    n, w, a = 1000, 20, 0.9
+    x = np.zeros((n, w, 2))
+    for t in range(1, n):
+        x[t] = a * x[t - 1] + np.sqrt(1 - a * a) * rng.standard_normal((w, 2))
+    base = dict(check_every=100, tau_rtol=1e-3, min_tau_multiple=10.0)
+    strict = stopping_rule(x, n, SamplerSettings(**base, ess_target=200))
+    assert strict["long_enough"] and strict["ess_reached"] and not strict["tau_stable"]
+    assert not strict["converged"] and not strict["tau_margin"]
+    wide = stopping_rule(x, n, SamplerSettings(**base, ess_target=200, tau_margin=True))
+    assert wide["converged"] and wide["tau_margin"] and wide["tau_change"] > 1e-3
+    # the enlarged tau must still meet the ESS target: a target just above the ESS that the
+    # enlarged tau allows is not met, though the plain estimate would meet it
+    tau = wide["tau_max"] * (1 + wide["tau_change"])
+    ess_wide = w * (n - np.ceil(2 * tau)) / tau
+    assert wide["ess_min"] > 1.02 * ess_wide
+    tight = stopping_rule(x, n, SamplerSettings(**base, ess_target=1.01 * ess_wide, tau_margin=True))
+    assert tight["ess_reached"] and not tight["tau_margin"] and not tight["converged"]
+    # the first check (no previous tau to compare with) never passes by the margin, even where
+    # length and ESS are met (independent draws, tau = 1)
+    first = stopping_rule(rng.standard_normal((100, w, 2)), 100, SamplerSettings(**base, ess_target=10,
+                                                                                  tau_margin=True))
+    assert first["long_enough"] and first["ess_reached"] and not first["converged"]
+
+
 def test_initial_walkers_lie_inside_the_support(meas, fit):
     lik = Likelihood(MODEL, meas)
     z = initial_walkers(lik, fit, 40, np.random.default_rng(0))

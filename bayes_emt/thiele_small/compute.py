@@ -115,11 +115,14 @@ NOISE_DESCRIPTION = {
 def _ts_sampler():
     from ..inference.sampling import SamplerSettings
 
-    return SamplerSettings(max_steps=3000, ess_target=400.0, min_tau_multiple=25.0, max_draws=2000)
+    return SamplerSettings(max_steps=3000, ess_target=400.0, min_tau_multiple=25.0, max_draws=2000,
+                           tau_margin=True)
 
 
 #: the sampler settings of a T/S posterior (a smaller ESS target than ``sample``'s 1000: quantiles
-#: of 5 % and 95 % from 400 effective draws move by about 0.1 posterior standard deviations)
+#: of 5 % and 95 % from 400 effective draws move by about 0.1 posterior standard deviations; a τ
+#: still moving passes when the length and ESS targets hold with τ enlarged by its last change,
+#: ``tau_margin``)
 TS_SAMPLER = None  # built lazily by _ts_sampler (inference is imported on use)
 
 
@@ -308,11 +311,18 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                               "message": f"the {label} posterior did not meet the stopping rule: "
                                          f"{post.message}"})
             theta = post.theta()
-        if mode != "point" and label == "free air":
+        if mode in ("posterior", "laplace") and label == "free air":  # the main model's curve only
             inp.curve = fit_curve(fit.model, theta, meas, fit.rms_rel_residual, inp.seed)
+        und = undetermined(fit.model.params, fit.theta, fit.cov_z)
         rec = {"rms": fit.rms_rel_residual, "draws": mode != "point" and theta is not point,
-               "undetermined": undetermined(fit.model.params, fit.theta, fit.cov_z),
-               "log_z": _single_evidence(meas, fit, prior_model, inp.noise) if inp.evidence else float("nan")}
+               "undetermined": und, "log_z": float("nan")}
+        if inp.evidence and und and method == "free_air" and mode in ("component", "point"):
+            # a candidate whose parameters are not all determined carries no weight and ranks
+            # below every determined one: its evidence is computed only if every candidate is so
+            # (_resolve_deferred)
+            rec["deferred_evidence"] = lambda: _single_evidence(meas, fit, prior_model, inp.noise)
+        elif inp.evidence:
+            rec["log_z"] = _single_evidence(meas, fit, prior_model, inp.noise)
         return fit.model, theta, point, rec
 
     if method == "free_air":
@@ -396,10 +406,11 @@ def _volume(bound, bbound, theta, theta_c, vb, inp, warns, model):
     return ts
 
 
-def _fit_candidates(models, method, inp, cand_mode, warns, comps) -> list[str]:
+def _fit_candidates(models, method, inp, cand_mode, warns, comps, rank: bool = True) -> list[str]:
     """Fit (and, for the mixture, approximate) each of ``models`` into ``comps[label] = (draws,
     point values, record)``; a candidate that fails is reported in ``warns``. Returns the labels of
-    ``comps`` ranked by :func:`~.spread.rank_key`, best first."""
+    ``comps`` ranked by :func:`~.spread.rank_key`, best first (``rank``: with the deferred
+    evidences of undetermined candidates computed when no candidate is determined)."""
     for cand in models:
         if cand.label in comps:
             continue
@@ -413,7 +424,20 @@ def _fit_candidates(models, method, inp, cand_mode, warns, comps) -> list[str]:
                                      f"fitted: {exc}"})
             continue
         warns.extend(w for w in cw if w["code"] == "mixture_component_failed")
+    if rank:
+        _resolve_deferred(comps)
     return sorted(comps, key=lambda m: rank_key(comps[m][2]), reverse=True)
+
+
+def _resolve_deferred(comps: dict) -> None:
+    """The evidence of the undetermined candidates (deferred by ``_estimate``) when no candidate is
+    determined: the ranking (:func:`~.spread.rank_key`) then compares them by it."""
+    if any(not c[2]["undetermined"] for c in comps.values()):
+        return
+    for c in comps.values():
+        get = c[2].pop("deferred_evidence", None)
+        if get is not None:
+            c[2]["log_z"] = get()
 
 
 def evidence_supported_model(meas: Measurement, *, noise: str = "white",
@@ -579,8 +603,8 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
     if auto:
         rec_main["log_z"] = comps[main.label][2]["log_z"]
     for cand in candidates:
-        if cand.label not in comps:
-            _fit_candidates([cand], method, inp, cand_mode, warns, comps)
+        if cand.label not in comps:  # a spread candidate: its rank is not needed
+            _fit_candidates([cand], method, inp, cand_mode, warns, comps, rank=False)
         if cand.label not in comps:
             continue
         cd, pv, rec = comps[cand.label]

@@ -26,7 +26,8 @@ MODEL_SPREAD_METHOD = (
     f"{ADEQUATE_RMS_FACTOR}x the best, whose parameters are all determined (finite standard error below the "
     "value, none at a prior edge) and whose posterior model probability (Laplace evidence, equal prior "
     f"odds) is at least {SPREAD_MIN_PROBABILITY:g}; candidates whose evidence could not be computed are kept "
-    "unweighted")
+    "unweighted; a candidate other than the main model with an undetermined parameter carries no weight and "
+    "its evidence is not computed")
 DEFAULT_SPREAD_BASES = ("II", "III", "UD")
 
 
