@@ -248,3 +248,24 @@ def test_a_polish_that_runs_out_of_evaluations_is_continued_and_never_worse():
     assert full.status != 0
     again = prob.polish(z0, lo, hi, max_nfev=25 * k)
     assert again.cost == pytest.approx(full.cost, rel=1e-12) and again.nfev == full.nfev
+
+
+def test_a_model_with_a_term_fits_warm_from_its_automatic_starts_to_the_same_optimum():
+    """``warm=True`` without ``initial`` on a model with an augmentation: the automatic starts (the
+    base model's fit and the term's starts) go straight to the polish and reach the full fit's cost;
+    ``fit_reusing`` keeps the warm and the full fit apart."""
+    from bayes_emt.estimation.fitting import fit_reusing
+    from bayes_emt.models import parse_model_spec
+    from bayes_emt.thiele_small.simulate import simulate_driver
+
+    meas = simulate_driver("UD+suspension_creep", deltas=(), seed=3, n_points=250).free
+    model = parse_model_spec("UD+suspension_creep")
+    reuse: dict = {}
+    full = fit_reusing(meas, model, reuse)
+    warm = fit_admittance(meas, model, warm=True, reuse=reuse)
+    assert warm.info["warm"] and not full.info["warm"] and "warm start" in warm.info["path"]
+    assert [s["step"][0] for s in warm.info["steps"]] == ["0"] * (len(warm.info["steps"]) - 1) + ["3"]
+    assert warm.chi2 == pytest.approx(full.chi2, rel=1e-6)
+    np.testing.assert_allclose(np.log(warm.theta), np.log(full.theta), atol=1e-4)
+    assert fit_reusing(meas, model, reuse) is full  # the cached full fit, not the warm one
+    assert fit_reusing(meas, model, reuse, warm=True) is not full

@@ -177,15 +177,18 @@ def _fit(meas: Measurement, model: Model, re, fits: dict | None):
     """``fit_admittance(meas, model, re=re)``, each fit of one recording made once per ``ts`` call:
     the candidates, the main model's posterior, the plateau reading and the nested fits their
     starts need (NL's UL surrogate, a term's base model) share ``fits[id(meas)]``
-    (:func:`~bayes_emt.estimation.fitting.fit_reusing`: the result does not depend on it)."""
+    (:func:`~bayes_emt.estimation.fitting.fit_reusing`: the result does not depend on it). A model
+    with a physics term is fitted warm (``warm=True``: from the fit without the term and the term's
+    starts straight to the polish; the paper's steps 1-2 only hand on a start)."""
     from ..estimation.fitting import fit_admittance, fit_reusing
 
+    warm = bool(model.augmentations)
     if fits is None:
-        return fit_admittance(meas, model, re=re)
+        return fit_admittance(meas, model, re=re, warm=warm)
     reuse = fits.setdefault(id(meas), {})
     if re is None:
-        return fit_reusing(meas, model, reuse)
-    return fit_admittance(meas, model, re=re, reuse=reuse)
+        return fit_reusing(meas, model, reuse, warm=warm)
+    return fit_admittance(meas, model, re=re, reuse=reuse, warm=warm)
 
 
 def _complete(ts: dict, model: Model, theta, inp: _Inputs, mms=None) -> dict:
