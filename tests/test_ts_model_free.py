@@ -300,3 +300,23 @@ def test_ts_model_free_uses_the_ohmmeter_and_the_added_masses():
     assert am.model_free["parameters"]["Mms"]["value"] == pytest.approx(sim.truth["Mms"], rel=0.02)
     row = next(ln for ln in am.summary().splitlines() if ln.startswith("Mms"))
     assert f"{am.model_free['parameters']['Mms']['value'] * 1e3:.4g} (" in row  # grams, with its interval
+
+
+def test_the_crossings_cubic_is_scipys_pchip():
+    """_pchip_root builds only the middle piece of the PCHIP through four points: the same root as
+    scipy's PchipInterpolator (to 1e-12 of the interval) on random and on monotone falls."""
+    from scipy.interpolate import PchipInterpolator
+
+    from bayes_emt.thiele_small.model_free import _pchip_root
+
+    rng = np.random.default_rng(5)
+    for i in range(1000):
+        xs = np.cumsum(rng.uniform(0.01, 1.0, 4))
+        ys = np.sort(rng.normal(size=4))[::-1] if i % 3 == 0 else rng.normal(size=4)
+        ys = ys - (ys[1] + ys[2]) / 2 if i % 3 == 0 else ys
+        roots = [r for r in PchipInterpolator(xs, ys).roots(extrapolate=False) if xs[1] <= r <= xs[2]]
+        got = _pchip_root(xs, ys)
+        if not roots:
+            assert got is None
+        else:
+            assert got == pytest.approx(roots[0], abs=1e-12 * (xs[2] - xs[1]))
