@@ -243,6 +243,9 @@ class Model:
                 other[n] = flat[:, i : i + 1]
         out = {"kappa": None, "y_mot_extra": None, "series": None, "parallel": None, "factor": None}
         motional = None
+        sees = any(t.sees_driver for t in self.terms)
+        coil = np.zeros((P, s.size), complex) if sees else None
+        later = []
         for t, sl in zip(self.terms, self._slices, strict=True):
             if device_only and not t.device:
                 continue
@@ -250,18 +253,31 @@ class Model:
             if t.stage == "motional":
                 motional = (t, v)
                 continue
+            if t.sees_driver:  # evaluated last, with the driver's coil and box (Term.sees_driver)
+                later.append((t, v))
+                continue
             c = t.evaluate(s, v, other)
-            key = {"stiffness": "kappa", "motional_parallel": "y_mot_extra", "series": "series",
-                   "parallel": "parallel", "measurement": "factor"}[t.stage]
-            prev = out[key]
-            if prev is None:
-                out[key] = np.broadcast_to(c, (P, s.size)).astype(complex)
-            elif key in ("kappa", "factor"):
-                out[key] = prev * c
-            else:
-                out[key] = prev + c
+            if sees and t.coil:
+                coil = coil + c
+            self._add_part(out, t.stage, c, P, s.size)
+        for t, v in later:
+            c = t.evaluate(s, v, {**other, "coil": coil, "y_mot_extra": out["y_mot_extra"]})
+            self._add_part(out, t.stage, c, P, s.size)
         out["motional"] = motional
         return out
+
+    @staticmethod
+    def _add_part(out, stage, c, P, F) -> None:
+        """Add a term's contribution ``c`` to its stage's sum in ``out`` (factors multiply)."""
+        key = {"stiffness": "kappa", "motional_parallel": "y_mot_extra", "series": "series",
+               "parallel": "parallel", "measurement": "factor"}[stage]
+        prev = out[key]
+        if prev is None:
+            out[key] = np.broadcast_to(c, (P, F)).astype(complex)
+        elif key in ("kappa", "factor"):
+            out[key] = prev * c
+        else:
+            out[key] = prev + c
 
     @staticmethod
     def _mech(s, v, kappa):
