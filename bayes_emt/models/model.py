@@ -257,8 +257,8 @@ class Model:
                 later.append((t, v))
                 continue
             c = t.evaluate(s, v, other)
-            if sees and t.coil:
-                coil = coil + c
+            if sees and t.stage == "series" and t.device and (t.coil or t.augmentation):
+                coil = coil + c  # the driver's series impedance besides R0 (Term.sees_driver)
             self._add_part(out, t.stage, c, P, s.size)
         for t, v in later:
             c = t.evaluate(s, v, {**other, "coil": coil, "y_mot_extra": out["y_mot_extra"]})

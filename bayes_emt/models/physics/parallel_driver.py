@@ -31,14 +31,42 @@ import numpy as np
 
 from ...params import LogUniform, ParamSpec
 from .. import terms as T
-from ..term import Term, col
+from ..catalogue import (
+    BesselEddy,
+    GapInductance,
+    Inductance,
+    LossyInductance,
+    Motional,
+    Resistance,
+    RingLadder,
+    UniformRings,
+)
+from ..term import Term, col, resolve_spec
 from ._starts import peaks, smooth
+from .enclosure_port import EnclosurePort
+from .lead_impedance import LeadImpedance
+from .lr2 import LR2
+from .second_resonance import SecondResonance
+from .semi_inductance import SemiInductance
 
 __all__ = ["ParallelDriver"]
 
-#: units of the coil parameters that scale with the coil's impedance (a time constant [s] or a
-#: dimensionless exponent does not)
-_SCALED_UNITS = ("H", "ohm", "H s^-0.5", "ohm s^n")
+#: units of the parameters an impedance [Ω] scales with (a time constant [s] or an exponent [1] does
+#: not; a box branch's Lb [H] does: its admittance is shared between the two drivers)
+_IMPEDANCE_UNITS = ("H", "ohm", "H s^-0.5", "ohm s^n")
+#: the unit of a mass-normalised coupling (a motional impedance scales with its square)
+_COUPLING_UNIT = "N/(A kg^0.5)"
+_SPECS = {p.name: p for c in (Resistance, Inductance, GapInductance, LossyInductance, BesselEddy,
+                              UniformRings, Motional, SemiInductance, LR2, LeadImpedance, SecondResonance,
+                              EnclosurePort)
+          for p in c.parameters}
+_RINGS = RingLadder.parameters
+
+
+def _unit(name: str) -> str:
+    """The unit of a base model's parameter ``name`` (``""`` for one the start does not scale)."""
+    p = _SPECS.get(name) or resolve_spec(_RINGS, name)
+    return "" if p is None else p.unit
 
 
 @dataclass(frozen=True)
@@ -86,22 +114,21 @@ class ParallelDriver(Term):
 
     def start(self, ctx):
         """Driver 1 and 2 from the lumped fit: two equal drivers in parallel are one of half the
-        impedance, so each starts with twice the lumped R0, coil and φ̄²; the resonances split around
-        the lumped one (ratios 1.1-1.5) or driver 2 at a peak of the lumped fit's real-part residual."""
-        from ..registry import TERMS  # the registry imports this module
-        from ..term import resolve_spec
-
+        impedance, so each starts with twice the lumped R0, coil, φ̄² and box branch ``Lb``; the
+        resonances split around the lumped one (ratios 1-1.5) or driver 2 at a peak of the lumped fit's
+        real-part residual."""
         spec = {n: self.params[n] for n in self.names}
         b = ctx.base
-        coil_specs = [p for c in TERMS.values() if c.coil for p in c.parameters]
-        scaled = {}
+        split = {}
         for n, x in b.items():
-            p = resolve_spec(coil_specs, n)
-            if p is not None and p.unit in _SCALED_UNITS:
-                scaled[n] = 2.0 * x
+            unit = _unit(n)
+            if unit in _IMPEDANCE_UNITS:
+                split[n] = 2.0 * x
+            elif unit == _COUPLING_UNIT:
+                split[n] = math.sqrt(2.0) * x
         w0, zeta = b["omega0"], max(b["zeta"], 0.02)
-        split = {**scaled, "R0": 2.0 * b["R0"], "phi": math.sqrt(2.0) * b["phi"], "zeta": zeta}
-        pairs = [(w0 / math.sqrt(r), w0 * math.sqrt(r)) for r in (1.1, 1.25, 1.5)]
+        split["zeta"] = zeta
+        pairs = [(w0 / math.sqrt(r), w0 * math.sqrt(r)) for r in (1.1, 1.25, 1.5)] + [(w0, w0)]
         m = (ctx.omega > w0 / 3.0) & (ctx.omega < 3.0 * w0)
         if np.count_nonzero(m) > 5:
             dz = smooth((ctx.Z - ctx.Z_base).real[m])
@@ -109,6 +136,6 @@ class ParallelDriver(Term):
         out = []
         for w1, w2 in pairs:
             out.append({**split, "omega0": w1, "R0_2": spec["R0_2"].clip_inside(2.0 * b["R0"]),
-"omega0_2": spec["omega0_2"].clip_inside(w2),
+                        "omega0_2": spec["omega0_2"].clip_inside(w2),
                         "phi_2": spec["phi_2"].clip_inside(math.sqrt(2.0) * b["phi"]), "kcoil_2": 1.0})
         return out
