@@ -711,34 +711,54 @@ def _explain(c: Candidate, band: Band, model: Model, moved: dict) -> str:
     )
 
 
-def _structure(meas, fit, lz, bands, sigma_rel, why, setup, say, warm, cache, pool, clock, deadline):
+def _structure(meas, bases, bands, sigma_rel, why, setup, say, warm, cache, pool, clock, deadline):
     """The structural terms (a second driver in parallel, :attr:`~bayes_emt.models.term.Term.structural`)
-    tried on ``fit`` when it shows the signature of more than one driver (``why``,
-    :func:`.sanity.structure_reason`), on the broadest of its unexplained ``bands``: ``(candidate,
-    band, line)`` when one is accepted by the evidence and its fit has no defect
+    tried when the search ends on the signature of more than one driver (``why``,
+    :func:`.sanity.structure_reason`), on the broadest of the kept fit's unexplained ``bands``, added to
+    each of ``bases``, ``[(fit, log Z, findings), ...]``: the model the search kept and, when it refused
+    one, the refused model fitted afresh from the automatic start (a lumped driver whose resonance
+    merged with a port's may be missing the pair's second resonance). ``(candidate, base, band,
+    line)`` of the best by evidence among those accepted whose fit has no defect
     (:func:`.sanity.defects`), else ``None`` (the possibility is then only named)."""
     band = max(bands, key=lambda b: b.hi / b.lo)
-    ids = [p for p in candidate_physics(band, fit.model, None, structure=True)
-           if getattr(TERMS.get(p), "structural", False) and setup_excludes(p, setup, meas) is None]
-    if not ids:
+    kept_fit, kept_lz, _ = bases[0]
+    best = None
+    for i, (fit, lz, found) in enumerate(bases):
+        if i:  # the refused fit's values are broken: its model from the automatic start instead
+            try:
+                fit = fit_reusing(meas, fit.model, cache.fits)
+            except (FitError, ValueError):
+                continue
+            lz = cache.evidence_of(meas, fit).log_z
+            if not math.isfinite(lz):
+                continue
+        ids = [p for p in candidate_physics(band, fit.model, None, structure=True)
+               if getattr(TERMS.get(p), "structural", False) and setup_excludes(p, setup, meas) is None]
+        if not ids or (deadline is not None and clock() > deadline):
+            continue
+        say(f"{why}: trying {', '.join(ids)} on {fit.model.label}")
+        ranked = rank_candidates(meas, fit, lz, band, sigma_rel, ids, progress=say, deadline=deadline,
+                                 joint=False, warm=warm, cache=cache, pool=pool, clock=clock)
+        pick, _ = choose(ranked, meas)
+        if pick is None:
+            say(f"  {', '.join(ids)} not accepted on {fit.model.label}"
+                + (f" (delta log Z {ranked[0].delta_log_z:.1f} nats)" if ranked else ""))
+            continue
+        m = pick.fit.model
+        bad = defects(pick.fit, [n for n in m.names if n not in m.base_model().names])
+        if bad:
+            say(f"  {pick.physics} on {fit.model.label} not kept: broken physics too ({'; '.join(bad)})")
+            continue
+        if best is None or pick.log_z > best[0].log_z:
+            best = (pick, (fit, lz, found))
+    if best is None or not best[0].log_z > kept_lz:
         return None
-    say(f"{why}: trying {', '.join(ids)} on {fit.model.label}")
-    ranked = rank_candidates(meas, fit, lz, band, sigma_rel, ids, progress=say, deadline=deadline,
-                             joint=False, warm=warm, cache=cache, pool=pool, clock=clock)
-    pick, _ = choose(ranked, meas)
-    if pick is None:
-        best = ranked[0] if ranked else None
-        say(f"  {', '.join(ids)} not accepted"
-            + (f" (delta log Z {best.delta_log_z:.1f} nats)" if best else ""))
-        return None
-    bad = defects(pick.fit, [n for n in pick.fit.model.names if n not in fit.model.names])
-    if bad:
-        say(f"  {pick.physics} not kept: its fit is broken physics too ({'; '.join(bad)})")
-        return None
-    return pick, band, (
-        f"one lumped driver cannot explain these data ({why}); a second driver in parallel "
-        f"({pick.physics}) does: log Z +{pick.delta_log_z:.1f} nats over {fit.model.label}; its values are "
-        "each driver's own (R0 is the first driver's, not the pair's); measure each driver alone to confirm")
+    pick, base = best
+    return pick, base, band, (
+        f"one lumped driver cannot explain these data ({why}); a second driver in parallel does: "
+        f"{pick.fit.model.label}, log Z +{pick.log_z - kept_lz:.1f} nats over {kept_fit.model.label}, "
+        "without a defect; its values are each driver's own (R0 is the first driver's, not the pair's); "
+        "measure each driver alone to confirm")
 
 
 def diagnose(
@@ -1005,6 +1025,7 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
     findings, fit, lz, stab = stability_review(meas, findings, fit, lz, lambda m, v: fit_admittance(
         meas, m, initial=v), lambda f: log_evidence(meas, f))
     warn.extend(stab)
+    reached = (fit, lz, list(findings))  # the final model before the sanity check
     refused = _sanity(meas, baseline, history, findings, fit, lz)
     if refused is not None:
         changed = refused[1] is not fit
@@ -1020,15 +1041,16 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
     why = structure_reason(refused_line, unexplained, fit)
     grown = None
     if why and unexplained_bands and (deadline is None or clock() <= deadline):
-        grown = _structure(meas, fit, lz, unexplained_bands, loc.sigma_rel, why, setup, say, warm, cache,
+        bases = [(fit, lz, list(findings))] + ([reached] if reached[0] is not fit else [])
+        grown = _structure(meas, bases, unexplained_bands, loc.sigma_rel, why, setup, say, warm, cache,
                            pool, clock, deadline)
     if grown is not None:
-        c, band, line = grown
+        c, (base_fit, _, base_findings), band, line = grown
         say(line)
         warn.append(line)
-        findings.append(_finding(meas, fit, c, band, loc.sigma_rel))
+        findings = [*base_findings, _finding(meas, base_fit, c, band, loc.sigma_rel)]
         say(findings[-1].explanation)
-        left = max_rounds - len(findings)
+        left = max(max_rounds - len(findings), 0)
         sub = _diagnose(meas, None, c.fit, left, alpha, seed + len(locations), say, time_budget, setup, t0,
                         clock, deadline, cache, pool, warm)
         return dataclasses.replace(
