@@ -129,7 +129,7 @@ def test_after_a_refused_merged_model_a_second_driver_in_parallel_is_tried_and_k
     c, (base, _, base_findings), _, said = out
     assert c.physics == "parallel_driver" and c.fit.model.label == "UD+enclosure_port+parallel_driver"
     assert base.model.label == "UD+enclosure_port" and base_findings == [port]
-    assert "\n" not in said and "a second driver in parallel does: UD+enclosure_port+parallel_driver" in said
+    assert "\n" not in said and "two drivers in parallel do: UD+enclosure_port+parallel_driver" in said
     assert c.log_z - lz > 5.0  # better by evidence than the lumped driver the search backed off to
     assert defects(c.fit, ["Lb", "omegab", "zetab", "R0_2", "omega0_2", "phi_2", "kcoil_2"]) == []
     v = c.fit.parameters

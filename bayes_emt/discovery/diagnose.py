@@ -755,7 +755,7 @@ def _structure(meas, bases, bands, sigma_rel, why, setup, say, warm, cache, pool
         return None
     pick, base = best
     return pick, base, band, (
-        f"one lumped driver cannot explain these data ({why}); a second driver in parallel does: "
+        f"one lumped driver cannot explain these data ({why}); two drivers in parallel do: "
         f"{pick.fit.model.label}, log Z +{pick.log_z - kept_lz:.1f} nats over {kept_fit.model.label}, "
         "without a defect; its values are each driver's own (R0 is the first driver's, not the pair's); "
         "measure each driver alone to confirm")

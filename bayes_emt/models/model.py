@@ -7,7 +7,12 @@ Terms enter at their stage (:mod:`bayes_emt.models.term`):
 
     Y_mot = (s² + 2ζω0 s + ω0² κ(s)) / (φ̄² s) + Σ motional-parallel admittances
     Z     = 1/Y_mot + Σ series impedances                       (R0, coil, other modes, leads)
-    Y     = factor(s) · (1/Z + Σ parallel admittances)          (winding capacitance; artefacts)
+    Y     = factor(s) · (1/Z + Σ parallel admittances)          (winding capacitance, a second driver;
+                                                                  artefacts)
+
+A term that copies the model's own driver (:attr:`~bayes_emt.models.term.Term.sees_driver`: a second
+driver in parallel) is evaluated after the others, given the driver's series impedance besides R0
+and its motional-parallel admittance.
 
 Models compare equal by value, pickle, and serialise to a dict from which
 :func:`~bayes_emt.models.spec.model_from_dict` rebuilds them (terms, configuration and priors).
