@@ -12,4 +12,6 @@ CASES = {
     "lr2": ("I", {"L_lr2": 1e-3, "R_lr2": 5.0}),
     "lead_impedance": ("III", {"Rl": 0.1, "Ll": 5e-5}),
     "measurement_artifact": ("UD", {"omegas": 3000.0, "delta_s": 0.02, "psi_s": 0.01}),
+    # a second shaker of the same type in parallel: fs 22 % higher, R0 and coil 10 % larger
+    "parallel_driver": ("UD", {"R0_2": 2.83, "omega0_2": 62.0, "phi_2": 1.9, "kcoil_2": 1.1}),
 }

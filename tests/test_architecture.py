@@ -149,8 +149,11 @@ def test_every_augmentation_has_a_band_class_and_is_proposed():
     assert not bad, f"augmentations without a valid band class {BANDS}: {bad}"
     assert len(AUGMENTATIONS) >= 9
     everywhere = Band(1.0, 1e6, 0, 100, ("real", "imag"), 10.0, 5.0, 1e3)
-    proposed = candidate_physics(everywhere, parse_model_spec("I"), None)
+    proposed = candidate_physics(everywhere, parse_model_spec("I"), None, structure=True)
     assert set(proposed) == set(AUGMENTATIONS) | {EDDY_PHYSICS}
+    # a structure beyond one driver only when the data show its signature
+    structural = {i for i in AUGMENTATIONS if TERMS[i].structural}
+    assert set(candidate_physics(everywhere, parse_model_spec("I"), None)) == set(proposed) - structural
 
 
 def test_the_term_name_check_finds_what_it_looks_for(tmp_path):

@@ -43,7 +43,7 @@ def test_the_patch_and_setup_knowledge_lives_on_the_term_classes():
     assert TERMS["measurement_artifact"].step_at == "omegas"
     assert TERMS["enclosure_port"].requires_setup == ("vented", "unknown")
     assert all(not c.requires_setup for i, c in TERMS.items() if i != "enclosure_port")
-    assert {i for i, c in TERMS.items() if c.moves_resonance} == {"enclosure_port"}
+    assert {i for i, c in TERMS.items() if c.moves_resonance} == {"enclosure_port", "parallel_driver"}
 
 
 def _vented():

@@ -71,14 +71,18 @@ def simulate_parallel_vented(*, noise: float, seed: int, omega=None) -> Measurem
     """Two drivers of the same type wired in parallel in one vented box (each loading its half of the
     box: the compliance ratio doubled), simulated as the parallel connection of the two terminal
     impedances: case 1's driver and a second sample whose fs is 12 % higher, Qms 35 % lower and coil
-    10 % larger (sample spread of one driver type), port tuned to 42 Hz. One lumped driver cannot
+    10 % larger (sample spread of one driver type; the same Bl and moving mass, so the same box branch
+    in each half), port tuned to 42 Hz. One lumped driver cannot
     hold two mechanical resonances: the curve has three impedance peaks' worth of structure."""
     driver, fb, alpha, qb = VENTED_CASES[1]
     other = {**driver, "omega0": driver["omega0"] * 1.12, "zeta": driver["zeta"] / 0.65,
-             "R0": driver["R0"] * 1.1, "Lg": driver["Lg"] * 1.1}
+             "R0": driver["R0"] * 1.1, "Lg": driver["Lg"] * 1.1, "beta": driver["beta"] * 1.1}
     omega = np.geomspace(2 * math.pi * 10, 2 * math.pi * 2e4, 2000) if omega is None else np.asarray(omega)
+    # the compliance ratio is Vas/Vb and Vas is proportional to the suspension's compliance: the
+    # stiffer sample sees the same box half as a smaller ratio (the box branch Lb = Bl² Vb/(ρ c² Sd²)
+    # is the same for both drivers, whatever their suspensions)
     za = vented_box_impedance(omega, driver, fb, 2 * alpha, qb)
-    zb = vented_box_impedance(omega, other, fb, 2 * alpha, qb)
+    zb = vented_box_impedance(omega, other, fb, 2 * alpha * (driver["omega0"] / other["omega0"]) ** 2, qb)
     Z = za * zb / (za + zb)
     rng = np.random.default_rng(seed)
     Y = (1 / Z) * (1 + noise * (rng.standard_normal(Z.shape) + 1j * rng.standard_normal(Z.shape)))

@@ -11,7 +11,10 @@ resonance ``ω_r`` the data shows), by the band class every registered augmentat
 * ``anywhere``: a second mechanical mode or an instrument step can sit anywhere; a drift along the
   sweep order shows in the real part wherever the base fit cannot absorb it.
 
-A term already in the model is not proposed again. The eddy-current escalation
+A term already in the model is not proposed again. A structure beyond one driver (a term that
+declares :attr:`~bayes_emt.models.term.Term.structural`, a second driver in parallel) is proposed only
+when the caller says the fit shows its signature (:func:`.sanity.structure_signature`): it is the
+costliest fit of a round and no single driver needs it. The eddy-current escalation
 (:data:`~bayes_emt.models.EDDY_PHYSICS`, band class :data:`~bayes_emt.models.EDDY_BAND`) is not a
 term but a change of the coil model up the ladder ``I → II → III/UD → NL(n)`` (:func:`escalations`),
 the ring count of NL chosen by evidence among the candidates. No physics is named here: a term
@@ -20,7 +23,7 @@ registered at run time (:func:`~bayes_emt.models.register_term`) is proposed lik
 
 from __future__ import annotations
 
-from ..models import BANDS, EDDY_BAND, EDDY_PHYSICS, Model, augmentations_in_band, eddy_escalations
+from ..models import BANDS, EDDY_BAND, EDDY_PHYSICS, TERMS, Model, augmentations_in_band, eddy_escalations
 from .locate import Band
 
 __all__ = ["candidate_physics", "escalations", "RING_COUNTS", "physics_in_band"]
@@ -41,12 +44,15 @@ def physics_in_band(band_class: str) -> tuple[str, ...]:
     return augmentations_in_band(band_class) + ((EDDY_PHYSICS,) if band_class == EDDY_BAND else ())
 
 
-def candidate_physics(band: Band, model: Model, omega_r: float | None) -> list[str]:
+def candidate_physics(band: Band, model: Model, omega_r: float | None, *,
+                      structure: bool = False) -> list[str]:
     """Physics ids of the catalogue whose signature can act in ``band``, for a model already holding
     ``model``'s terms (module docstring); ``omega_r`` [rad/s] the resonance (``None``: every id).
     The eddy-current escalation comes last (NL fits are the slowest: a time budget cuts it rather
     than the cheap catalogue terms), and only when ``model``'s coil model has a rung above it and
-    ``model`` holds no lossy-coil augmentation (a ``coil`` term already models the coil's loss)."""
+    ``model`` holds no lossy-coil augmentation (a ``coil`` term already models the coil's loss).
+    ``structure``: the fit shows the signature of more than one driver, so the structural terms are
+    proposed too (module docstring)."""
     present = {t.id for t in model.augmentations}
     high = omega_r is None or band.hi > 3.0 * omega_r
     low = omega_r is None or band.lo < 3.0 * omega_r
@@ -58,4 +64,5 @@ def candidate_physics(band: Band, model: Model, omega_r: float | None) -> list[s
     lossy = any(t.coil for t in model.augmentations)
     out = [p for p in out if p != EDDY_PHYSICS] + [
         p for p in out if p == EDDY_PHYSICS and not lossy and escalations(model)]
-    return [p for p in out if p not in present]
+    return [p for p in out if p not in present
+            and (structure or not getattr(TERMS.get(p), "structural", False))]

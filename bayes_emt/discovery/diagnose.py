@@ -35,7 +35,7 @@ from ..estimation.results import FitResult
 from ..evidence.fit_evidence import fit_log_evidence
 from ..evidence.step_intervals import STEP_METHOD
 from ..measurement import Measurement
-from ..models import EDDY_PHYSICS, Model, parse_model_spec
+from ..models import EDDY_PHYSICS, TERMS, Model, parse_model_spec
 from ..models.derived import mechanical_resonance
 from .candidates import candidate_physics
 from .locate import ALPHA, Band, Location, locate_mismatch
@@ -48,9 +48,17 @@ from .name import (
     portable,
     rank_candidates,
 )
-from .prefer import change_band, check_setup, choose, narrow_mode_note, setup_excludes, stability_review
+from .prefer import (
+    change_band,
+    check_setup,
+    choose,
+    narrow_mode_note,
+    setup_excludes,
+    stability_review,
+    two_impedance_maxima,
+)
 from .reconcile import final_comparison, healthy_start, kept_findings
-from .sanity import back_off, structure_note
+from .sanity import back_off, defects, structure_note, structure_reason
 from .shape import describe_shape, residual_shape
 
 __all__ = ["Finding", "Diagnosis", "diagnose", "preferred_base_model", "BASELINE_CANDIDATES",
@@ -584,6 +592,45 @@ def _sanity(meas, baseline, history, findings, fit, lz):
     return [f for f in findings if id(f) in kept], keep_fit, keep_lz, line
 
 
+def _finding(meas: Measurement, fit: FitResult, c: Candidate, located: Band, sigma_rel: float) -> Finding:
+    """The :class:`Finding` of candidate ``c`` accepted for the located band ``located`` of ``fit``."""
+    where = change_band(meas, fit, c.fit, sigma_rel)
+    band = dataclasses.replace(located, lo=where["lo"], hi=where["hi"], i_lo=where["i_lo"],
+                               i_hi=where["i_hi"])
+    moved = moved_parameters(fit, c.fit)
+    units = dict(zip(c.fit.model.names, c.fit.model.params.units, strict=True))
+    params = {
+        "added": {
+            n: {"value": v, "stderr": s if math.isfinite(s) else None, "unit": units[n]}
+            for n, (v, s) in c.added.items()
+        },
+        "moved": moved,
+    }
+    term = next((t for t in c.fit.model.augmentations if t.id in c.physics.split("+")), None)
+    return Finding(
+        c.physics,
+        band,
+        c.delta_log_z,
+        c.chi2_band_before,
+        c.chi2_band_after,
+        c.identifiable,
+        c.identifiability,
+        True if term is None else term.device,
+        params,
+        c.fit.model.label,
+        _explain(c, band, c.fit.model, moved)
+        + ("" if term is None or term.device else "; an instrument or session effect")
+        + (f"; {where['shape']}" if where["broadband"] else "")
+        + ("; a generic patch" if c.patch else "")
+        + (f"; {note}" if (note := narrow_mode_note(c.physics, c.fit)) else ""),
+        c.evidence_method,
+        c.evidence_note,
+        (located.lo, located.hi),
+        where["broadband"],
+        where["shape"],
+    )
+
+
 def moved_parameters(before: FitResult, after: FitResult) -> dict:
     """``{name: {"before", "after", "relative_change", "stderr_before", "beyond_stderr"}}`` of the
     plant parameters (R0, ζ, ω0, φ̄ and fs [Hz] and Qms by the Thiele–Small convention,
@@ -662,6 +709,56 @@ def _explain(c: Candidate, band: Band, model: Model, moved: dict) -> str:
         f"{c.chi2_band_before:.4g} to {c.chi2_band_after:.4g} ({c.n_band} residuals); {holds}"
         + (f"; moved: {shifts}" if shifts else "")
     )
+
+
+def _structure(meas, bases, bands, sigma_rel, why, setup, say, warm, cache, pool, clock, deadline):
+    """The structural terms (a second driver in parallel, :attr:`~bayes_emt.models.term.Term.structural`)
+    tried when the search ends on the signature of more than one driver (``why``,
+    :func:`.sanity.structure_reason`), on the broadest of the kept fit's unexplained ``bands``, added to
+    each of ``bases``, ``[(fit, log Z, findings), ...]``: the model the search kept and, when it refused
+    one, the refused model fitted afresh from the automatic start (a lumped driver whose resonance
+    merged with a port's may be missing the pair's second resonance). ``(candidate, base, band,
+    line)`` of the best by evidence among those accepted whose fit has no defect
+    (:func:`.sanity.defects`), else ``None`` (the possibility is then only named)."""
+    band = max(bands, key=lambda b: b.hi / b.lo)
+    kept_fit, kept_lz, _ = bases[0]
+    best = None
+    for i, (fit, lz, found) in enumerate(bases):
+        if i:  # the refused fit's values are broken: its model from the automatic start instead
+            try:
+                fit = fit_reusing(meas, fit.model, cache.fits)
+            except (FitError, ValueError):
+                continue
+            lz = cache.evidence_of(meas, fit).log_z
+            if not math.isfinite(lz):
+                continue
+        ids = [p for p in candidate_physics(band, fit.model, None, structure=True)
+               if getattr(TERMS.get(p), "structural", False) and setup_excludes(p, setup, meas) is None]
+        if not ids or (deadline is not None and clock() > deadline):
+            continue
+        say(f"{why}: trying {', '.join(ids)} on {fit.model.label}")
+        ranked = rank_candidates(meas, fit, lz, band, sigma_rel, ids, progress=say, deadline=deadline,
+                                 joint=False, warm=warm, cache=cache, pool=pool, clock=clock)
+        pick, _ = choose(ranked, meas)
+        if pick is None:
+            say(f"  {', '.join(ids)} not accepted on {fit.model.label}"
+                + (f" (delta log Z {ranked[0].delta_log_z:.1f} nats)" if ranked else ""))
+            continue
+        m = pick.fit.model
+        bad = defects(pick.fit, [n for n in m.names if n not in m.base_model().names])
+        if bad:
+            say(f"  {pick.physics} on {fit.model.label} not kept: broken physics too ({'; '.join(bad)})")
+            continue
+        if best is None or pick.log_z > best[0].log_z:
+            best = (pick, (fit, lz, found))
+    if best is None or not best[0].log_z > kept_lz:
+        return None
+    pick, base = best
+    return pick, base, band, (
+        f"one lumped driver cannot explain these data ({why}); two drivers in parallel do: "
+        f"{pick.fit.model.label}, log Z +{pick.log_z - kept_lz:.1f} nats over {kept_fit.model.label}, "
+        "without a defect; its values are each driver's own (R0 is the first driver's, not the pair's); "
+        "measure each driver alone to confirm")
 
 
 def diagnose(
@@ -832,6 +929,9 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
     omega_r = None if resonance is None else resonance.omega
     findings, locations, tried = [], [], []
     history = [(fit, lz, None)]  # the start and each accepted model, for the sanity check
+    # two |Z| maxima with a minimum between them: two mechanical resonances (a port, or a second
+    # driver), so the structural terms join the mechanical candidates of every round
+    two_maxima = two_impedance_maxima(meas)[0]
     setup_notes: list[str] = []
     loc0 = loc = None
     unexplained_bands: list[Band] = []
@@ -853,7 +953,7 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
             break
         for band in loc.bands[:MAX_BANDS_PER_ROUND]:
             ids = []
-            for p in candidate_physics(band, fit.model, omega_r):
+            for p in candidate_physics(band, fit.model, omega_r, structure=two_maxima):
                 why = setup_excludes(p, setup, meas)
                 if why is None:
                     ids.append(p)
@@ -912,43 +1012,7 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
             unexplained_bands += list(loc.bands[MAX_BANDS_PER_ROUND:])
             break
         located, c = accepted
-        where = change_band(meas, fit, c.fit, loc.sigma_rel)
-        band = dataclasses.replace(located, lo=where["lo"], hi=where["hi"], i_lo=where["i_lo"],
-                                   i_hi=where["i_hi"])
-        moved = moved_parameters(fit, c.fit)
-        units = dict(zip(c.fit.model.names, c.fit.model.params.units, strict=True))
-        params = {
-            "added": {
-                n: {"value": v, "stderr": s if math.isfinite(s) else None, "unit": units[n]}
-                for n, (v, s) in c.added.items()
-            },
-            "moved": moved,
-        }
-        term = next((t for t in c.fit.model.augmentations if t.id in c.physics.split("+")), None)
-        findings.append(
-            Finding(
-                c.physics,
-                band,
-                c.delta_log_z,
-                c.chi2_band_before,
-                c.chi2_band_after,
-                c.identifiable,
-                c.identifiability,
-                True if term is None else term.device,
-                params,
-                c.fit.model.label,
-                _explain(c, band, c.fit.model, moved)
-                + ("" if term is None or term.device else "; an instrument or session effect")
-                + (f"; {where['shape']}" if where["broadband"] else "")
-                + ("; a generic patch" if c.patch else "")
-                + (f"; {note}" if (note := narrow_mode_note(c.physics, c.fit)) else ""),
-                c.evidence_method,
-                c.evidence_note,
-                (located.lo, located.hi),
-                where["broadband"],
-                where["shape"],
-            )
-        )
+        findings.append(_finding(meas, fit, c, located, loc.sigma_rel))
         if c.evidence_method not in ("laplace", STEP_METHOD):
             warn.append(
                 f"{c.physics}: its delta_log_evidence is not the Laplace screen's (which failed) but "
@@ -961,6 +1025,7 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
     findings, fit, lz, stab = stability_review(meas, findings, fit, lz, lambda m, v: fit_admittance(
         meas, m, initial=v), lambda f: log_evidence(meas, f))
     warn.extend(stab)
+    reached = (fit, lz, list(findings))  # the final model before the sanity check
     refused = _sanity(meas, baseline, history, findings, fit, lz)
     if refused is not None:
         changed = refused[1] is not fit
@@ -972,7 +1037,28 @@ def _diagnose(meas, model, fit, max_rounds, alpha, seed, say, time_budget, setup
         locations.append({"round": len(locations), "model": fit.model.label, **loc.to_json_dict()})
         unexplained_bands = list(loc.bands)
     unexplained = _unexplained(meas, fit, unexplained_bands)
-    note = structure_note(refused is not None and refused[3], unexplained, fit)
+    refused_line = refused is not None and refused[3]
+    why = structure_reason(refused_line, unexplained, fit)
+    grown = None
+    if why and unexplained_bands and (deadline is None or clock() <= deadline):
+        bases = [(fit, lz, list(findings))] + ([reached] if reached[0] is not fit else [])
+        grown = _structure(meas, bases, unexplained_bands, loc.sigma_rel, why, setup, say, warm, cache,
+                           pool, clock, deadline)
+    if grown is not None:
+        c, (base_fit, _, base_findings), band, line = grown
+        say(line)
+        warn.append(line)
+        findings = [*base_findings, _finding(meas, base_fit, c, band, loc.sigma_rel)]
+        say(findings[-1].explanation)
+        left = max(max_rounds - len(findings), 0)
+        sub = _diagnose(meas, None, c.fit, left, alpha, seed + len(locations), say, time_budget, setup, t0,
+                        clock, deadline, cache, pool, warm)
+        return dataclasses.replace(
+            sub, baseline_fit=baseline, findings=(*findings, *sub.findings),
+            locations=(*locations, *sub.locations), tried=(*tried, *sub.tried),
+            warnings=(*warn, *(w for w in sub.warnings if not w.startswith("R0 moved"))),
+            seconds=time.perf_counter() - t0, baseline_location=loc0)
+    note = structure_note(refused_line, unexplained, fit)
     if note:
         warn.append(note)
     if len(findings) == max_rounds and loc is not None and loc.bands:

@@ -653,7 +653,9 @@ def _candidates(meas, current, band, sigma_rel, physics, res, dt, current_log_z,
         )
         bad = bad or _at_prior_bound(fit, new_names)
         if physics != EDDY_PHYSICS:  # a coil model's escalation re-fits R0 with the coil
-            bad = bad or _takes_r0(current, fit, meas) or _moves_fs(current, fit, ids)
+            # a structure beyond one driver gives each driver its own R0 (a pair's is about half each's)
+            split = any(t.structural for t in fit.model.augmentations if t.id in ids)
+            bad = bad or (None if split else _takes_r0(current, fit, meas)) or _moves_fs(current, fit, ids)
         patch = is_patch(physics, fit)
         problem = None
         if patch:

@@ -23,7 +23,9 @@ series) or a driver with a passive radiator put two mechanical resonances where 
 one. When the refused model's defect is the driver's resonance merged with another mode or its
 damping at the prior's edge, or when the final fit still leaves a broadband mismatch of more than
 :data:`BROAD_RMS` rms (the real recordings of single drivers end at 0.6-2.2 %), the diagnosis names
-that possibility and what tells it apart (each driver measured alone).
+that possibility and what tells it apart (each driver measured alone). The diagnosis then also tries
+the structural terms of the catalogue (a second driver in parallel, ``parallel_driver``) on the model it
+kept, and the evidence decides (:func:`structure_reason` is the trigger).
 """
 
 from __future__ import annotations
@@ -35,8 +37,8 @@ import numpy as np
 from ..estimation.results import FitResult
 from ..models.derived import mechanical_resonance
 
-__all__ = ["defects", "back_off", "structure_note", "BROAD_RMS", "AT_EDGE", "MERGE_RATIO", "QMS_RANGE",
-           "QES_RANGE", "PLANT"]
+__all__ = ["defects", "back_off", "structure_note", "structure_reason", "BROAD_RMS", "AT_EDGE",
+           "MERGE_RATIO", "QMS_RANGE", "QES_RANGE", "PLANT"]
 
 #: within this fraction of its prior's range (sampling space) of a bound, a parameter sits at the edge
 AT_EDGE = 1e-3
@@ -119,14 +121,21 @@ def back_off(history) -> tuple[int | None, list[str]]:
 BROAD_RMS = 0.05
 
 
+def structure_reason(refused: str | bool, unexplained, fit: FitResult) -> str:
+    """Why the fit points to more than one driver (module docstring), ``""`` when nothing does:
+    ``refused`` the refusal line of the final model (or ``False``), ``unexplained`` the records of the
+    bands left (their ``description``), ``fit`` the final fit."""
+    if isinstance(refused, str) and ("merged" in refused or "zeta =" in refused):
+        return "the refused model put the driver's resonance onto another mode"
+    if fit.rms_rel_residual > BROAD_RMS and any("broadband" in u.get("description", "")
+                                                for u in unexplained):
+        return f"a broadband mismatch of {100 * fit.rms_rel_residual:.2g} % rms remains"
+    return ""
+
+
 def structure_note(refused: str | bool, unexplained, fit: FitResult) -> str:
     """The possibility of more than one driver (module docstring), ``""`` when nothing points to it."""
-    why = ""
-    if isinstance(refused, str) and ("merged" in refused or "zeta =" in refused):
-        why = "the refused model put the driver's resonance onto another mode"
-    elif fit.rms_rel_residual > BROAD_RMS and any("broadband" in u.get("description", "")
-                                                  for u in unexplained):
-        why = (f"a broadband mismatch of {100 * fit.rms_rel_residual:.2g} % rms remains")
+    why = structure_reason(refused, unexplained, fit)
     if not why:
         return ""
     return (f"two drivers wired in parallel (or in series), or a driver with a passive radiator, are a "

@@ -7,7 +7,12 @@ Terms enter at their stage (:mod:`bayes_emt.models.term`):
 
     Y_mot = (s² + 2ζω0 s + ω0² κ(s)) / (φ̄² s) + Σ motional-parallel admittances
     Z     = 1/Y_mot + Σ series impedances                       (R0, coil, other modes, leads)
-    Y     = factor(s) · (1/Z + Σ parallel admittances)          (winding capacitance; artefacts)
+    Y     = factor(s) · (1/Z + Σ parallel admittances)          (winding capacitance, a second driver;
+                                                                  artefacts)
+
+A term that copies the model's own driver (:attr:`~bayes_emt.models.term.Term.sees_driver`: a second
+driver in parallel) is evaluated after the others, given the driver's series impedance besides R0
+and its motional-parallel admittance.
 
 Models compare equal by value, pickle, and serialise to a dict from which
 :func:`~bayes_emt.models.spec.model_from_dict` rebuilds them (terms, configuration and priors).
@@ -243,6 +248,9 @@ class Model:
                 other[n] = flat[:, i : i + 1]
         out = {"kappa": None, "y_mot_extra": None, "series": None, "parallel": None, "factor": None}
         motional = None
+        sees = any(t.sees_driver for t in self.terms)
+        coil = np.zeros((P, s.size), complex) if sees else None
+        later = []
         for t, sl in zip(self.terms, self._slices, strict=True):
             if device_only and not t.device:
                 continue
@@ -250,18 +258,31 @@ class Model:
             if t.stage == "motional":
                 motional = (t, v)
                 continue
+            if t.sees_driver:  # evaluated last, with the driver's coil and box (Term.sees_driver)
+                later.append((t, v))
+                continue
             c = t.evaluate(s, v, other)
-            key = {"stiffness": "kappa", "motional_parallel": "y_mot_extra", "series": "series",
-                   "parallel": "parallel", "measurement": "factor"}[t.stage]
-            prev = out[key]
-            if prev is None:
-                out[key] = np.broadcast_to(c, (P, s.size)).astype(complex)
-            elif key in ("kappa", "factor"):
-                out[key] = prev * c
-            else:
-                out[key] = prev + c
+            if sees and t.stage == "series" and t.device and (t.coil or t.augmentation):
+                coil = coil + c  # the driver's series impedance besides R0 (Term.sees_driver)
+            self._add_part(out, t.stage, c, P, s.size)
+        for t, v in later:
+            c = t.evaluate(s, v, {**other, "coil": coil, "y_mot_extra": out["y_mot_extra"]})
+            self._add_part(out, t.stage, c, P, s.size)
         out["motional"] = motional
         return out
+
+    @staticmethod
+    def _add_part(out, stage, c, P, F) -> None:
+        """Add a term's contribution ``c`` to its stage's sum in ``out`` (factors multiply)."""
+        key = {"stiffness": "kappa", "motional_parallel": "y_mot_extra", "series": "series",
+               "parallel": "parallel", "measurement": "factor"}[stage]
+        prev = out[key]
+        if prev is None:
+            out[key] = np.broadcast_to(c, (P, F)).astype(complex)
+        elif key in ("kappa", "factor"):
+            out[key] = prev * c
+        else:
+            out[key] = prev + c
 
     @staticmethod
     def _mech(s, v, kappa):

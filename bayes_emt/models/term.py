@@ -235,6 +235,15 @@ class Term:
     #: the term re-places the driver's own resonance (a vented box splits it into two peaks), so
     #: discovery lets it move fs beyond :data:`~bayes_emt.discovery.name.FS_FACTOR_MAX`
     moves_resonance: ClassVar[bool] = False
+    #: :meth:`evaluate` reads the model's own driver: ``other["coil"]``, the driver's series impedance
+    #: besides R0 ``(P, F)`` [Ω] (its coil terms and every series device augmentation: a lossy coil,
+    #: another mode, its leads), and ``other["y_mot_extra"]``, the admittance the
+    #: motional-parallel terms add to the motional branch ``(P, F)`` [S] or ``None`` (a second driver
+    #: of the same type in the same box); such a term is evaluated after every other
+    sees_driver: ClassVar[bool] = False
+    #: a structure beyond one driver (a second driver in parallel): discovery proposes it only when
+    #: the fit shows that structure's signature (:func:`~bayes_emt.discovery.sanity.structure_signature`)
+    structural: ClassVar[bool] = False
 
     # ---- construction and serialisation ---------------------------------------------------------
     @classmethod

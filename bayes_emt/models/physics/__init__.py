@@ -15,6 +15,7 @@ from .enclosure_port import EnclosurePort
 from .lead_impedance import LeadImpedance
 from .lr2 import LR2
 from .measurement_artifact import MeasurementArtifact
+from .parallel_driver import ParallelDriver
 from .second_resonance import SecondResonance
 from .semi_inductance import SemiInductance
 from .suspension_creep import SuspensionCreep
@@ -22,10 +23,11 @@ from .thermal_drift import ThermalDrift
 from .winding_capacitance import WindingCapacitance
 
 __all__ = ["BUILTIN", "WindingCapacitance", "SecondResonance", "EnclosurePort", "SuspensionCreep",
-           "ThermalDrift", "SemiInductance", "LR2", "LeadImpedance", "MeasurementArtifact"]
+           "ThermalDrift", "SemiInductance", "LR2", "LeadImpedance", "MeasurementArtifact",
+           "ParallelDriver"]
 
 #: the catalogue in registration order: within a band class, discovery tries candidates in this
 #: order (a time budget cuts the last first)
 BUILTIN = (SemiInductance, LR2, WindingCapacitance, LeadImpedance,  # coil
-           SuspensionCreep, EnclosurePort,  # mechanical
+           SuspensionCreep, EnclosurePort, ParallelDriver,  # mechanical
            SecondResonance, MeasurementArtifact, ThermalDrift)  # anywhere
