@@ -56,8 +56,9 @@ from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import EDDY_PHYSICS, Model, parse_model_spec
 from .diagnose import _fmt, diagnose
+from .joint_evidence import JOINT_METHOD, PER_RUN, finding_joint_evidence, pair_log_evidence
 from .locate import Band
-from .name import MIN_DELTA_LOG_Z, fit_candidate, log_evidence, max_log_likelihood
+from .name import MIN_DELTA_LOG_Z, fit_candidate, log_evidence
 
 __all__ = ["check_with", "with_second_recordings", "model_without", "search_other", "named_ids",
            "value_disagreements", "VALUE_FACTOR"]
@@ -134,12 +135,26 @@ def _fit(meas: Measurement, model: Model, start: dict) -> FitResult:
     return min(fits, key=lambda f: f.chi2)
 
 
+def _final_on(meas: Measurement, diag) -> FitResult:
+    """``diag``'s final fit on all of ``meas`` (polished there when the search saw fewer points)."""
+    fit = diag.final_fit
+    if meas.n_points != fit.n_points:
+        fit = fit_admittance(meas, fit.model, initial=fit.theta, warm=True)
+    return fit
+
+
 def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: Measurement | None = None
                ) -> dict:
-    """The joint-evidence record of ``diag`` (of ``meas``) against ``other`` (module docstring):
-    ``{"source", "delta_m_kg", "final_model", "log_z_final" [nats], "terms": [{"physics",
-    "delta_log_evidence_other" [nats], "needed_by_other", "model_without", "note"}], "flagged":
-    [physics], "added_mass": {...} (with ``delta_m`` and ``meas``)}``."""
+    """The joint-evidence record of ``diag`` (of ``meas``, the first recording) against ``other``
+    (module docstring): ``{"source", "delta_m_kg", "final_model", "method": "laplace-joint",
+    "per_run", "log_z_final" [nats, the other recording alone], "log_z_joint" [nats, both under the
+    final model], "terms": [{"physics", "delta_log_z_joint" [nats], "log_z_joint": {"shared",
+    "neither", "first_only"}, "needed_by_other" (the joint verdict), "delta_log_evidence_other"
+    [nats, the other recording alone, a diagnostic], "model_without", "values_agree",
+    "values_apart", "verdict", "note"}], "flagged": [physics], "added_mass": {...} (with
+    ``delta_m``: the joint added-mass fits and their F-test, a diagnostic)}``."""
+    if meas is None:
+        raise ValueError("the joint evidence needs the first recording too (meas=)")
     if delta_m is not None and not (math.isfinite(delta_m) and delta_m != 0):
         raise ValueError(f"--also {other.source}: the added mass must be a non-zero number of kg, "
                          f"got {delta_m!r}")
@@ -149,15 +164,12 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
     if res is not None and "omega0" in start:
         start["omega0"] = float(res.omega)
     fb = _fit(other, final, start)
+    fa = _final_on(meas, diag)
     lz = log_evidence(other, fb)
+    lz_joint = pair_log_evidence(meas, other, fa, fb)
     start_b = fb.model.as_dict(fb.theta)
-    n_values = 2 * other.n_points
-
-    def bic(f: FitResult) -> float:  # Schwarz: max log-likelihood - k/2 ln N
-        return max_log_likelihood(other, f) - 0.5 * f.model.ndim * math.log(n_values)
-
-    method = "laplace" if math.isfinite(lz) else "bic"
-    w_a, w_b = diag.final_fit.parameters.get("omega0"), start_b.get("omega0")
+    start_a = fa.model.as_dict(fa.theta)
+    w_a, w_b = fa.parameters.get("omega0"), start_b.get("omega0")
     factor = VALUE_FACTOR
     if delta_m is not None and w_a and w_b and w_a > 0 and w_b > 0:
         # the mass ratio (m + Δm)/m (or its inverse for a mass taken off): the most a mass-dependent
@@ -167,41 +179,56 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
     for i, f in enumerate(diag.findings):
         m0 = model_without(diag, i)
         own = [n for n in final.names if n not in m0.names]
-        apart = value_disagreements(diag.final_fit, fb, own, factor)
+        apart = value_disagreements(fa, fb, own, factor)
         try:
             f0 = _fit(other, m0, start_b)
-            lz0 = log_evidence(other, f0) if method == "laplace" else math.nan
-            how = method
-            if not math.isfinite(lz0):  # the Laplace screen failed: both sides by BIC
-                lz_with, lz0, how = bic(fb), bic(f0), "bic"
-            else:
-                lz_with = lz
+            fa0 = _fit(meas, m0, start_a)
         except (FitError, ValueError) as exc:
-            terms.append({"physics": f.physics, "delta_log_evidence_other": None, "needed_by_other": None,
-                          "model_without": m0.label, "note": f"the fit without it failed: {exc}"})
+            terms.append({"physics": f.physics, "delta_log_z_joint": None, "delta_log_evidence_other": None,
+                          "needed_by_other": None, "model_without": m0.label, "verdict": "not judged",
+                          "note": f"the fit without it failed: {exc}"})
             continue
-        d = lz_with - lz0 if math.isfinite(lz_with) and math.isfinite(lz0) else float("nan")
-        needed = bool(d >= MIN_DELTA_LOG_Z) if math.isfinite(d) else None
-        note = (f"{other.source} needs it too (log Z {d:+.1f} nats with it)" if needed
-                else f"{other.source} does not need it (log Z {d:+.1f} nats with it, < {MIN_DELTA_LOG_Z:g}): "
-                     "a term only one recording needs" if needed is False
-                else "the evidence on the second recording failed")
-        if apart and needed:  # (a term B does not need is flagged already; its values there are moot)
+        lz0 = log_evidence(other, f0)
+        d_b = lz - lz0 if math.isfinite(lz) and math.isfinite(lz0) else math.nan
+        je = finding_joint_evidence(meas, other, (fa, fb), (fa0, f0), shared=lz_joint)
+        d = je["delta_log_z_joint"]
+        needed = None if d is None else bool(d >= MIN_DELTA_LOG_Z)
+        if needed is None:
+            verdict = "not judged"
+            note = "the joint evidence failed (" + "; ".join(
+                f"{k}: {v}" for k, v in je["estimators"].items() if str(v).startswith("failed")) + ")"
+        elif needed:
+            verdict = "shared, kept"
+            note = (f"{meas.source} and {other.source} share it: log Z of both together {d:+.1f} nats "
+                    f"with it than {_ALTERNATIVE[je['best_alternative']]} (joint evidence)")
+        else:
+            verdict = "flagged: not shared"
+            note = (f"{meas.source} and {other.source} do not share it: log Z of both together {d:+.1f} "
+                    f"nats with it than {_ALTERNATIVE[je['best_alternative']]} "
+                    f"(< {MIN_DELTA_LOG_Z:g}): a term only one recording needs")
+        if apart and not d_b < MIN_DELTA_LOG_Z:  # B uses the term (a term B does without: values moot)
             pairs = ", ".join(f"{a['name']} {_fmt(a['first'], a['unit'])} here, "
                               f"{_fmt(a['other'], a['unit'])} there" for a in apart)
-            note += (f"; but its values disagree ({pairs}, beyond a factor "
+            verdict = "flagged: other values"
+            note += (f"; its values disagree ({pairs}, beyond a factor "
                      f"{factor:.3g} and {VALUE_SE:g} standard errors): the two recordings do not use it "
                      "for the same thing (another feature there, or values traded against the other "
                      "terms)")
-        if needed is False or (apart and needed):
+        if needed is False or verdict == "flagged: other values":
             flagged.append(f.physics)
-        terms.append({"physics": f.physics, "delta_log_evidence_other": d if math.isfinite(d) else None,
-                      "needed_by_other": needed, "model_without": m0.label, "note": note, "method": how,
+        terms.append({"physics": f.physics, "delta_log_z_joint": d, "log_z_joint": {
+                          k: je[k] for k in ("shared", "neither", "first_only")},
+                      "joint_estimators": je["estimators"], "best_alternative": je["best_alternative"],
+                      "needed_by_other": needed, "verdict": verdict,
+                      "delta_log_evidence_other": d_b if math.isfinite(d_b) else None,
+                      "model_without": m0.label, "note": note, "method": JOINT_METHOD,
                       "values_agree": None if apart is None else not apart, "values_apart": apart or []})
     rec = {"source": str(other.source), "delta_m_kg": delta_m, "final_model": final.label,
-           "rms_rel_residual_other": fb.rms_rel_residual,
-           "log_z_final": lz if math.isfinite(lz) else None, "terms": terms, "flagged": flagged}
-    if delta_m is not None and meas is not None:
+           "method": JOINT_METHOD, "per_run": list(PER_RUN), "rms_rel_residual_other": fb.rms_rel_residual,
+           "log_z_final": lz if math.isfinite(lz) else None,
+           "log_z_joint": lz_joint[0] if math.isfinite(lz_joint[0]) else None,
+           "terms": terms, "flagged": flagged}
+    if delta_m is not None:
         rec["added_mass"] = {}
         for which, fit in (("baseline", diag.baseline_fit), ("final", diag.final_fit)):
             try:
@@ -216,6 +243,11 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
                 "consistency_p_value": r.consistency["p_value"], "consistency_F": r.consistency["F"],
                 "rms_rel_residual": list(r.rms_rel_residual)}
     return rec
+
+
+#: the alternative a finding's joint evidence was measured against, in words
+_ALTERNATIVE = {"neither": "without it in either recording",
+                "first_only": "with it in the first recording alone"}
 
 
 def named_ids(diag) -> list[str]:
