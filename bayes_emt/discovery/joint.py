@@ -206,6 +206,10 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
             note = (f"{meas.source} and {other.source} do not share it: log Z of both together {d:+.1f} "
                     f"nats with it than {_ALTERNATIVE[je['best_alternative']]} "
                     f"(< {MIN_DELTA_LOG_Z:g}): a term only one recording needs")
+        failed = [k for k in ("neither", "first_only") if je[k] is None]
+        if needed is not None and failed:
+            note += (f" (the evidence {_ALTERNATIVE[failed[0]]} failed: compared with the other "
+                     "alternative only)")
         if apart and not d_b < MIN_DELTA_LOG_Z:  # B uses the term (a term B does without: values moot)
             pairs = ", ".join(f"{a['name']} {_fmt(a['first'], a['unit'])} here, "
                               f"{_fmt(a['other'], a['unit'])} there" for a in apart)

@@ -74,7 +74,12 @@ def joint_log_evidence(density, fit, seed: int = 0) -> Evidence:
     fallback's importance-sampling draws."""
     z0, scale, p = joint_start(density, fit)
     log_q = blocked(density.log_posterior_z)
-    warp = Warp.of(density.params, mask=np.arange(z0.size) >= p)
+    # the noise coordinates logit-mapped (a fit cannot tell whether their posterior presses against a
+    # bound), and every other bounded one whose fit lies within 3 standard errors of a bound (a
+    # hypothesis that fits one recording badly can push a term's parameter there)
+    sd = np.sqrt(np.clip(np.diag(scale), 0, None))
+    near = Warp.near_bounds(density.params, z0, z0, sd, n_sd=3.0).mask
+    warp = Warp.of(density.params, mask=(np.arange(z0.size) >= p) | near)
     step = _joint_step(density)
     if step is not None:
         name, grid = step
