@@ -3,30 +3,33 @@
 A diagnosis of recording A names terms; a second recording B of the same transducer (a known added
 mass ``Δm`` [kg], or the same driver at another drive level or session: ``Δm`` ``None``) must need
 them as well: the coil and the suspension do not change with a mass on the cone (an instrument step
-of one session is what B should not need, and is then flagged). :func:`check_with` refits B with A's
+of one session is what B should not need, and is then flagged). :func:`check_with` fits B with A's
 final model and, for each finding, with that finding taken out (a term removed; for the eddy-current
-escalation, the coil model it replaced), from A's final values (``ω0`` moved to B's resonance). The
-finding's evidence gain on B is ``Δ log Z_B = log Z_B(final) − log Z_B(final without it)`` (the
-Laplace screen of :mod:`bayes_emt.evidence`; when it fails on either side, both sides are taken by
-Schwarz's approximation, the maximum log-likelihood less ``½ k ln N``, and the record says
-``"method": "bic"``). A finding with
-``Δ log Z_B <`` :data:`MIN_DELTA_LOG_Z` (the acceptance threshold of :mod:`.name`) is one only A
-needs: it is **flagged** (a warning). With ``Δm`` the joint added-mass fit
-(:func:`bayes_emt.added_mass.fit_added_mass`: one ``m, c, k, φ`` and one coil shared by both runs)
-is run with A's baseline and final models; the record gives ``m``, ``Bl``, ``k``, ``R0`` and the
-pair's consistency F-test for each, so one sees whether the named physics explains both recordings
-in one fit.
+escalation, the coil model it replaced), from A's final values (``ω0`` moved to B's resonance), and
+judges each finding by **one log evidence of both recordings together**
+(:mod:`.joint_evidence`): the finding shared by both (one set of values), in neither, or in A
+alone, each recording with its own mechanics ``ζ, ω0, φ̄`` and everything else shared;
+``Δ log Z_joint = log Z(shared) − max(log Z(neither), log Z(A only))`` below
+:data:`MIN_DELTA_LOG_Z` (the acceptance threshold of :mod:`.name`) is a finding the pair does not
+share: it is **flagged** (a warning). The record says ``"method": "laplace-joint"``. B's own gain
+``Δ log Z_B`` (its Laplace evidence with and without the finding) is kept beside as a diagnostic.
+With ``Δm`` the joint added-mass fit (:func:`bayes_emt.added_mass.fit_added_mass`: one ``m, c, k,
+φ`` and one coil shared by both runs) is run with A's baseline and final models; the record gives
+``m``, ``Bl``, ``k``, ``R0`` and the pair's consistency F-test for each: a diagnostic printed
+beside the verdicts, not one of them.
 
 **The same values** (:func:`value_disagreements`): B needing a term is not B needing it *for the
 same thing*. Each finding's own parameters (those its removal takes out) from A's final fit and
 from B's fit with A's final model must agree: a parameter disagrees when its two values differ by
 more than three combined standard errors *and* by more than a factor :data:`VALUE_FACTOR` (or
 the mass ratio ``(m + Δm)/m = (ω0_A/ω0_B)²`` when that is larger: the most a mass-dependent value
-may move). Such a finding is **flagged** whatever its ``Δ log Z_B``: the two recordings do not use
-the term for the same thing (B uses it for another feature, or its values trade against the other
-terms). On the LS10-44 run2 pair the free-air run's second resonance sits at 148.6 rad/s
-(23.6 Hz); the added-mass run, refitted with the same model, puts it at 4925 rad/s (784 Hz), 33
-times higher, while its ``Δ log Z_B`` of +3285 nats said B needs it.
+may move). Such a finding, when B alone needs it (``Δ log Z_B ≥`` :data:`MIN_DELTA_LOG_Z`), is
+**flagged** whatever its joint evidence: the two recordings do not use the term for the same
+thing (B uses it for another feature, or its values trade against the other terms). On the
+LS10-44 run2 pair the free-air run's second resonance sits at 148.6 rad/s (23.6 Hz); the added-mass
+run, refitted with the same model, puts it at 4925 rad/s (784 Hz), 33 times higher, while its
+``Δ log Z_B`` of +3285 nats said B needs it, and the joint evidence prefers one shared mode to none
+(+2112 nats: one set of values between the two features fits the pair better than no mode).
 
 **The other way round** (:func:`search_other`, ``search``): B is diagnosed too, from A's starting
 model with A's settings, and each term B's diagnosis names that A's findings do not is added to A's
