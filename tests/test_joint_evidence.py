@@ -98,6 +98,8 @@ def test_an_added_mass_pair_keeps_a_shared_term_and_flags_one_the_other_recordin
     rec = check_with(_diag(a, model, {**UD, **MODE2}), b, DM, meas=a)
     (t,) = rec["terms"]
     assert rec["method"] == "laplace-joint" and rec["delta_m_kg"] == DM
+    # one R0 for both: its own R0 for each recording buys the pair nothing
+    assert rec["per_run"] == ["zeta", "omega0", "phi"] and rec["log_z_joint_other_r0"] < rec["log_z_joint"]
     assert t["verdict"] == verdict
     d = t["delta_log_z_joint"]
     if case == "same":
@@ -116,6 +118,20 @@ def test_an_added_mass_pair_keeps_a_shared_term_and_flags_one_the_other_recordin
     # the joint added-mass fit stays as a diagnostic: the moving mass within 10 % when B shares A's physics
     if case == "same":
         assert rec["added_mass"]["final"]["m_kg"] == pytest.approx(M, rel=0.10)
+
+
+def test_each_recording_gets_its_own_r0_when_the_pair_evidence_prefers_it():
+    """The second session's coil 8 % warmer (R0 +8 %, everything else the same): one shared R0
+    fits neither recording, so the final model's joint log Z is higher with each recording's own
+    R0, and that choice is recorded."""
+    model = parse_model_spec("UD")
+    a = simulate(model, UD, GRID, noise=NOISE, seed=51, source="A")
+    b = simulate(model, {**_loaded(UD), "R0": 1.08 * UD["R0"]}, GRID, noise=NOISE, seed=52, source="B")
+    fit = fit_admittance(a, model, initial=UD)
+    rec = check_with(Diagnosis("A", fit, fit, (), ()), b, DM, meas=a)
+    assert rec["per_run"] == ["zeta", "omega0", "phi", "R0"]
+    assert rec["log_z_joint"] > rec["log_z_joint_other_r0"] + 5.0
+    assert rec["terms"] == [] and rec["flagged"] == []
 
 
 #: the stored diagnosis of the LS10-44 run2 pair (scripts/discovery_joint_pair.py)

@@ -8,7 +8,9 @@ final model and, for each finding, with that finding taken out (a term removed; 
 escalation, the coil model it replaced), from A's final values (``ω0`` moved to B's resonance), and
 judges each finding by **one log evidence of both recordings together**
 (:mod:`.joint_evidence`): the finding shared by both (one set of values), in neither, or in A
-alone, each recording with its own mechanics ``ζ, ω0, φ̄`` and everything else shared;
+alone, each recording with its own mechanics ``ζ, ω0, φ̄`` (and its own ``R0`` when that raises
+the final model's joint evidence: the coil's temperature changes between sessions) and everything
+else shared;
 ``Δ log Z_joint = log Z(shared) − max(log Z(neither), log Z(A only))`` below
 :data:`MIN_DELTA_LOG_Z` (the acceptance threshold of :mod:`.name`) is a finding the pair does not
 share: it is **flagged** (a warning). The record says ``"method": "laplace-joint"``. B's own gain
@@ -150,9 +152,11 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
                ) -> dict:
     """The joint-evidence record of ``diag`` (of ``meas``, the first recording) against ``other``
     (module docstring): ``{"source", "delta_m_kg", "final_model", "method": "laplace-joint",
-    "per_run", "log_z_final" [nats, the other recording alone], "log_z_joint" [nats, both under the
-    final model], "terms": [{"physics", "delta_log_z_joint" [nats], "log_z_joint": {"shared",
-    "neither", "first_only"}, "needed_by_other" (the joint verdict), "delta_log_evidence_other"
+    "per_run" (each recording's own parameters: the mechanics, and R0 when that raises the final
+    model's joint log Z), "log_z_joint_other_r0" [nats], "log_z_final" [nats, the other recording
+    alone], "log_z_joint" [nats, both under the final model], "terms": [{"physics",
+    "delta_log_z_joint" [nats], "log_z_joint": {"shared", "neither", "first_only"},
+    "needed_by_other" (the joint verdict), "delta_log_evidence_other"
     [nats, the other recording alone, a diagnostic], "model_without", "values_agree",
     "values_apart", "verdict", "note"}], "flagged": [physics], "added_mass": {...} (with
     ``delta_m``: the joint added-mass fits and their F-test, a diagnostic)}``."""
@@ -169,7 +173,13 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
     fb = _fit(other, final, start)
     fa = _final_on(meas, diag)
     lz = log_evidence(other, fb)
-    lz_joint = pair_log_evidence(meas, other, fa, fb)
+    # each recording's own R0 too when the pair's evidence prefers it (the coil's temperature, the
+    # leads and contacts change between sessions)
+    per_run, lz_joint = PER_RUN, pair_log_evidence(meas, other, fa, fb)
+    lz_r0 = (pair_log_evidence(meas, other, fa, fb, (*PER_RUN, "R0")) if "R0" in final.names
+             else (math.nan, ""))
+    if math.isfinite(lz_r0[0]) and not lz_joint[0] >= lz_r0[0]:
+        per_run, lz_joint, lz_r0 = (*PER_RUN, "R0"), lz_r0, lz_joint
     start_b = fb.model.as_dict(fb.theta)
     start_a = fa.model.as_dict(fa.theta)
     w_a, w_b = fa.parameters.get("omega0"), start_b.get("omega0")
@@ -193,7 +203,7 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
             continue
         lz0 = log_evidence(other, f0)
         d_b = lz - lz0 if math.isfinite(lz) and math.isfinite(lz0) else math.nan
-        je = finding_joint_evidence(meas, other, (fa, fb), (fa0, f0), shared=lz_joint)
+        je = finding_joint_evidence(meas, other, (fa, fb), (fa0, f0), shared=lz_joint, per_run=per_run)
         d = je["delta_log_z_joint"]
         needed = None if d is None else bool(d >= MIN_DELTA_LOG_Z)
         if needed is None:
@@ -231,9 +241,11 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
                       "model_without": m0.label, "note": note, "method": JOINT_METHOD,
                       "values_agree": None if apart is None else not apart, "values_apart": apart or []})
     rec = {"source": str(other.source), "delta_m_kg": delta_m, "final_model": final.label,
-           "method": JOINT_METHOD, "per_run": list(PER_RUN), "rms_rel_residual_other": fb.rms_rel_residual,
+           "method": JOINT_METHOD, "per_run": list(per_run), "rms_rel_residual_other": fb.rms_rel_residual,
            "log_z_final": lz if math.isfinite(lz) else None,
            "log_z_joint": lz_joint[0] if math.isfinite(lz_joint[0]) else None,
+           # the final model's joint log Z with the other choice of R0 (shared, or each recording's)
+           "log_z_joint_other_r0": lz_r0[0] if math.isfinite(lz_r0[0]) else None,
            "terms": terms, "flagged": flagged}
     if delta_m is not None:
         rec["added_mass"] = {}
