@@ -6,8 +6,9 @@ each by one log evidence of both recordings together (:func:`bayes_emt.evidence.
 the Laplace approximation of ``∫ p(Y_A|θ_A) p(Y_B|θ_B) p(x) dx``) under
 :class:`~bayes_emt.added_mass.pair.PairModel`: every parameter the two runs' models have in common is
 shared (the coil, the finding's own parameters, the other terms), except each recording's mechanics
-``ζ, ω0, φ̄`` (:data:`PER_RUN`: a mass on the cone, another mounting or session moves them; with a
-known added mass the joint added-mass fit is reported beside, not used here):
+``ζ, ω0, φ̄`` (:data:`PER_RUN`: a mass on the cone, another mounting or session moves them; the
+caller may add ``R0``, which the coil's temperature moves between sessions; with a known added mass
+the joint added-mass fit is reported beside, not used here):
 
 * **shared**: both recordings under ``M``, the finding's parameters one set of values;
 * **neither**: both under ``M0``;
