@@ -210,15 +210,12 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
             verdict = "not judged"
             note = "the joint evidence failed (" + "; ".join(
                 f"{k}: {v}" for k, v in je["estimators"].items() if str(v).startswith("failed")) + ")"
-        elif needed:
-            verdict = "shared, kept"
-            note = (f"{meas.source} and {other.source} share it: log Z of both together {d:+.1f} nats "
-                    f"with it than {_ALTERNATIVE[je['best_alternative']]} (joint evidence)")
         else:
-            verdict = "flagged: not shared"
-            note = (f"{meas.source} and {other.source} do not share it: log Z of both together {d:+.1f} "
-                    f"nats with it than {_ALTERNATIVE[je['best_alternative']]} "
-                    f"(< {MIN_DELTA_LOG_Z:g}): a term only one recording needs")
+            verdict = "shared, kept" if needed else "flagged: not shared"
+            note = (f"the log evidence of {meas.source} and {other.source} together is {d:+.1f} nats "
+                    f"higher with it shared than {_ALTERNATIVE[je['best_alternative']]}")
+            note += (": both recordings need it" if needed else
+                     f" (< {MIN_DELTA_LOG_Z:g}): a term only one recording needs")
         failed = [k for k in ("neither", "first_only") if je[k] is None]
         if needed is not None and failed:
             note += (f" (the evidence {_ALTERNATIVE[failed[0]]} failed: compared with the other "
