@@ -55,16 +55,22 @@ def test_a_term_both_recordings_need_passes_one_only_the_first_needs_is_flagged(
     a, b, diag = pair
     rec = check_with(diag, b, DM, meas=a)
     by = {t["physics"]: t for t in rec["terms"]}
+    assert rec["method"] == "laplace-joint"
     assert by["semi_inductance"]["needed_by_other"] is True
-    assert by["semi_inductance"]["delta_log_evidence_other"] >= 5.0
+    assert by["semi_inductance"]["delta_log_z_joint"] >= 5.0
+    assert by["semi_inductance"]["verdict"] == "shared, kept"
+    # the step: A alone explains the pair better than one step shared by both
     assert by["measurement_artifact"]["needed_by_other"] is False
+    assert by["measurement_artifact"]["delta_log_z_joint"] < 5.0
+    assert by["measurement_artifact"]["best_alternative"] == "first_only"
     assert rec["flagged"] == ["measurement_artifact"]
     assert by["measurement_artifact"]["model_without"] == "I+semi_inductance"
     # the joint added-mass fit with the final model recovers the moving mass (20 g) within 10 %
     am = rec["added_mass"]
     assert set(am) == {"baseline", "final"}
     assert am["final"]["m_kg"] == pytest.approx(M, rel=0.10)
-    # the step forced on B too: the pair does not share the final model (the F-test rejects it)
+    # the step forced on B too: the pair does not share the final model (the F-test, a diagnostic
+    # beside the verdicts, rejects it)
     assert am["final"]["consistency_p_value"] < 1e-3
 
 
@@ -74,8 +80,10 @@ MODE2 = {"zeta2": 0.03, "omega2": 2 * np.pi * 400.0, "phi2": 12.0}
 @pytest.mark.parametrize("f2_other, agree", [(400.0, True), (1200.0, False)])
 def test_a_term_the_other_recording_needs_for_another_feature_is_flagged(f2_other, agree):
     """A: a second mode at 400 Hz; B: the same driver with its second mode at 400 Hz (the same
-    physics) or at 1200 Hz (another feature). B needs the term either way (Δ log Z_B ≥ 5); only
-    the values tell them apart, and at 1200 Hz the finding is flagged with both values named."""
+    physics) or at 1200 Hz (another feature). B alone needs the term either way (Δ log Z_B ≥ 5);
+    the joint evidence of both (one set of mode values) keeps it at 400 Hz and not at 1200 Hz,
+    where the mode in A alone explains the pair better, and the separate fits' values name both
+    frequencies: flagged, with the warning."""
     model = parse_model_spec("I+second_resonance")
     a = simulate(model, {**SPEAKER, **MODE2}, GRID, noise=0.003, seed=31, source="A")
     b = simulate(model, {**SPEAKER, **MODE2, "omega2": 2 * np.pi * f2_other}, GRID, noise=0.003, seed=32,
@@ -86,19 +94,24 @@ def test_a_term_the_other_recording_needs_for_another_feature_is_flagged(f2_othe
     out = with_second_recordings(diag, a, [(b, None)])
     rec = out.joint[0]
     (t,) = rec["terms"]
-    assert t["needed_by_other"] is True and t["delta_log_evidence_other"] >= 5.0
+    assert rec["method"] == t["method"] == "laplace-joint"
+    assert t["delta_log_evidence_other"] >= 5.0  # B alone needs a second mode either way
     assert t["values_agree"] is agree
     assert (rec["flagged"] == ["second_resonance"]) is not agree
     warned = [w for w in out.warnings if w.startswith("second_resonance:") and "joint evidence" in w]
     table = next(x for x in out.tables() if "joint evidence" in x.title)
     if agree:
+        assert t["needed_by_other"] is True and t["delta_log_z_joint"] >= 5.0
+        assert t["verdict"] == "shared, kept"
         assert warned == [] and table.rows[0][3] == "yes"
     else:
+        assert t["needed_by_other"] is False and t["delta_log_z_joint"] < 5.0
+        assert t["best_alternative"] == "first_only" and t["verdict"] == "flagged: other values"
         apart = {x["name"]: x for x in t["values_apart"]}
         assert apart["omega2"]["first"] == pytest.approx(2 * np.pi * 400.0, rel=0.02)
         assert apart["omega2"]["other"] == pytest.approx(2 * np.pi * 1200.0, rel=0.02)
         assert len(warned) == 1 and "do not use it for the same thing" in warned[0]
-        assert table.rows[0][3] == "with other values: flagged"
+        assert table.rows[0][3] == "no: flagged"
 
 
 def test_values_disagree_only_beyond_the_factor_and_the_standard_errors():

@@ -3,30 +3,35 @@
 A diagnosis of recording A names terms; a second recording B of the same transducer (a known added
 mass ``Δm`` [kg], or the same driver at another drive level or session: ``Δm`` ``None``) must need
 them as well: the coil and the suspension do not change with a mass on the cone (an instrument step
-of one session is what B should not need, and is then flagged). :func:`check_with` refits B with A's
+of one session is what B should not need, and is then flagged). :func:`check_with` fits B with A's
 final model and, for each finding, with that finding taken out (a term removed; for the eddy-current
-escalation, the coil model it replaced), from A's final values (``ω0`` moved to B's resonance). The
-finding's evidence gain on B is ``Δ log Z_B = log Z_B(final) − log Z_B(final without it)`` (the
-Laplace screen of :mod:`bayes_emt.evidence`; when it fails on either side, both sides are taken by
-Schwarz's approximation, the maximum log-likelihood less ``½ k ln N``, and the record says
-``"method": "bic"``). A finding with
-``Δ log Z_B <`` :data:`MIN_DELTA_LOG_Z` (the acceptance threshold of :mod:`.name`) is one only A
-needs: it is **flagged** (a warning). With ``Δm`` the joint added-mass fit
-(:func:`bayes_emt.added_mass.fit_added_mass`: one ``m, c, k, φ`` and one coil shared by both runs)
-is run with A's baseline and final models; the record gives ``m``, ``Bl``, ``k``, ``R0`` and the
-pair's consistency F-test for each, so one sees whether the named physics explains both recordings
-in one fit.
+escalation, the coil model it replaced), from A's final values (``ω0`` moved to B's resonance), and
+judges each finding by **one log evidence of both recordings together**
+(:mod:`.joint_evidence`): the finding shared by both (one set of values), in neither, or in A
+alone, each recording with its own mechanics ``ζ, ω0, φ̄`` (and its own ``R0`` when that raises
+the final model's joint evidence: the coil's temperature changes between sessions) and everything
+else shared;
+``Δ log Z_joint = log Z(shared) − max(log Z(neither), log Z(A only))`` below
+:data:`MIN_DELTA_LOG_Z` (the acceptance threshold of :mod:`.name`) is a finding the pair does not
+share: it is **flagged** (a warning). The record says ``"method": "laplace-joint"``. B's own gain
+``Δ log Z_B`` (its Laplace evidence with and without the finding) is kept beside as a diagnostic.
+With ``Δm`` the joint added-mass fit (:func:`bayes_emt.added_mass.fit_added_mass`: one ``m, c, k,
+φ`` and one coil shared by both runs) is run with A's baseline and final models; the record gives
+``m``, ``Bl``, ``k``, ``R0`` and the pair's consistency F-test for each: a diagnostic printed
+beside the verdicts, not one of them.
 
 **The same values** (:func:`value_disagreements`): B needing a term is not B needing it *for the
 same thing*. Each finding's own parameters (those its removal takes out) from A's final fit and
 from B's fit with A's final model must agree: a parameter disagrees when its two values differ by
 more than three combined standard errors *and* by more than a factor :data:`VALUE_FACTOR` (or
 the mass ratio ``(m + Δm)/m = (ω0_A/ω0_B)²`` when that is larger: the most a mass-dependent value
-may move). Such a finding is **flagged** whatever its ``Δ log Z_B``: the two recordings do not use
-the term for the same thing (B uses it for another feature, or its values trade against the other
-terms). On the LS10-44 run2 pair the free-air run's second resonance sits at 148.6 rad/s
-(23.6 Hz); the added-mass run, refitted with the same model, puts it at 4925 rad/s (784 Hz), 33
-times higher, while its ``Δ log Z_B`` of +3285 nats said B needs it.
+may move). Such a finding, when B alone needs it (``Δ log Z_B ≥`` :data:`MIN_DELTA_LOG_Z`), is
+**flagged** whatever its joint evidence: the two recordings do not use the term for the same
+thing (B uses it for another feature, or its values trade against the other terms). On the
+LS10-44 run2 pair the free-air run's second resonance sits at 148.6 rad/s (23.6 Hz); the added-mass
+run, refitted with the same model, puts it at 4925 rad/s (784 Hz), 33 times higher, while its
+``Δ log Z_B`` of +3285 nats said B needs it, and the joint evidence prefers one shared mode to none
+(+2112 nats: one set of values between the two features fits the pair better than no mode).
 
 **The other way round** (:func:`search_other`, ``search``): B is diagnosed too, from A's starting
 model with A's settings, and each term B's diagnosis names that A's findings do not is added to A's
@@ -56,8 +61,9 @@ from ..estimation.results import FitResult
 from ..measurement import Measurement
 from ..models import EDDY_PHYSICS, Model, parse_model_spec
 from .diagnose import _fmt, diagnose
+from .joint_evidence import JOINT_METHOD, PER_RUN, finding_joint_evidence, pair_log_evidence
 from .locate import Band
-from .name import MIN_DELTA_LOG_Z, fit_candidate, log_evidence, max_log_likelihood
+from .name import MIN_DELTA_LOG_Z, fit_candidate, log_evidence
 
 __all__ = ["check_with", "with_second_recordings", "model_without", "search_other", "named_ids",
            "value_disagreements", "VALUE_FACTOR"]
@@ -134,12 +140,28 @@ def _fit(meas: Measurement, model: Model, start: dict) -> FitResult:
     return min(fits, key=lambda f: f.chi2)
 
 
+def _final_on(meas: Measurement, diag) -> FitResult:
+    """``diag``'s final fit on all of ``meas`` (polished there when the search saw fewer points)."""
+    fit = diag.final_fit
+    if meas.n_points != fit.n_points:
+        fit = fit_admittance(meas, fit.model, initial=fit.theta, warm=True)
+    return fit
+
+
 def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: Measurement | None = None
                ) -> dict:
-    """The joint-evidence record of ``diag`` (of ``meas``) against ``other`` (module docstring):
-    ``{"source", "delta_m_kg", "final_model", "log_z_final" [nats], "terms": [{"physics",
-    "delta_log_evidence_other" [nats], "needed_by_other", "model_without", "note"}], "flagged":
-    [physics], "added_mass": {...} (with ``delta_m`` and ``meas``)}``."""
+    """The joint-evidence record of ``diag`` (of ``meas``, the first recording) against ``other``
+    (module docstring): ``{"source", "delta_m_kg", "final_model", "method": "laplace-joint",
+    "per_run" (each recording's own parameters: the mechanics, and R0 when that raises the final
+    model's joint log Z), "log_z_joint_other_r0" [nats], "log_z_final" [nats, the other recording
+    alone], "log_z_joint" [nats, both under the final model], "terms": [{"physics",
+    "delta_log_z_joint" [nats], "log_z_joint": {"shared", "neither", "first_only"},
+    "needed_by_other" (the joint verdict), "delta_log_evidence_other"
+    [nats, the other recording alone, a diagnostic], "model_without", "values_agree",
+    "values_apart", "verdict", "note"}], "flagged": [physics], "added_mass": {...} (with
+    ``delta_m``: the joint added-mass fits and their F-test, a diagnostic)}``."""
+    if meas is None:
+        raise ValueError("the joint evidence needs the first recording too (meas=)")
     if delta_m is not None and not (math.isfinite(delta_m) and delta_m != 0):
         raise ValueError(f"--also {other.source}: the added mass must be a non-zero number of kg, "
                          f"got {delta_m!r}")
@@ -149,15 +171,18 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
     if res is not None and "omega0" in start:
         start["omega0"] = float(res.omega)
     fb = _fit(other, final, start)
+    fa = _final_on(meas, diag)
     lz = log_evidence(other, fb)
+    # each recording's own R0 too when the pair's evidence prefers it (the coil's temperature, the
+    # leads and contacts change between sessions)
+    per_run, lz_joint = PER_RUN, pair_log_evidence(meas, other, fa, fb)
+    lz_r0 = (pair_log_evidence(meas, other, fa, fb, (*PER_RUN, "R0")) if "R0" in final.names
+             else (math.nan, ""))
+    if math.isfinite(lz_r0[0]) and not lz_joint[0] >= lz_r0[0]:
+        per_run, lz_joint, lz_r0 = (*PER_RUN, "R0"), lz_r0, lz_joint
     start_b = fb.model.as_dict(fb.theta)
-    n_values = 2 * other.n_points
-
-    def bic(f: FitResult) -> float:  # Schwarz: max log-likelihood - k/2 ln N
-        return max_log_likelihood(other, f) - 0.5 * f.model.ndim * math.log(n_values)
-
-    method = "laplace" if math.isfinite(lz) else "bic"
-    w_a, w_b = diag.final_fit.parameters.get("omega0"), start_b.get("omega0")
+    start_a = fa.model.as_dict(fa.theta)
+    w_a, w_b = fa.parameters.get("omega0"), start_b.get("omega0")
     factor = VALUE_FACTOR
     if delta_m is not None and w_a and w_b and w_a > 0 and w_b > 0:
         # the mass ratio (m + Δm)/m (or its inverse for a mass taken off): the most a mass-dependent
@@ -167,41 +192,59 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
     for i, f in enumerate(diag.findings):
         m0 = model_without(diag, i)
         own = [n for n in final.names if n not in m0.names]
-        apart = value_disagreements(diag.final_fit, fb, own, factor)
+        apart = value_disagreements(fa, fb, own, factor)
         try:
             f0 = _fit(other, m0, start_b)
-            lz0 = log_evidence(other, f0) if method == "laplace" else math.nan
-            how = method
-            if not math.isfinite(lz0):  # the Laplace screen failed: both sides by BIC
-                lz_with, lz0, how = bic(fb), bic(f0), "bic"
-            else:
-                lz_with = lz
+            fa0 = _fit(meas, m0, start_a)
         except (FitError, ValueError) as exc:
-            terms.append({"physics": f.physics, "delta_log_evidence_other": None, "needed_by_other": None,
-                          "model_without": m0.label, "note": f"the fit without it failed: {exc}"})
+            terms.append({"physics": f.physics, "delta_log_z_joint": None, "delta_log_evidence_other": None,
+                          "needed_by_other": None, "model_without": m0.label, "verdict": "not judged",
+                          "note": f"the fit without it failed: {exc}"})
             continue
-        d = lz_with - lz0 if math.isfinite(lz_with) and math.isfinite(lz0) else float("nan")
-        needed = bool(d >= MIN_DELTA_LOG_Z) if math.isfinite(d) else None
-        note = (f"{other.source} needs it too (log Z {d:+.1f} nats with it)" if needed
-                else f"{other.source} does not need it (log Z {d:+.1f} nats with it, < {MIN_DELTA_LOG_Z:g}): "
-                     "a term only one recording needs" if needed is False
-                else "the evidence on the second recording failed")
-        if apart and needed:  # (a term B does not need is flagged already; its values there are moot)
+        lz0 = log_evidence(other, f0)
+        d_b = lz - lz0 if math.isfinite(lz) and math.isfinite(lz0) else math.nan
+        je = finding_joint_evidence(meas, other, (fa, fb), (fa0, f0), shared=lz_joint, per_run=per_run)
+        d = je["delta_log_z_joint"]
+        needed = None if d is None else bool(d >= MIN_DELTA_LOG_Z)
+        if needed is None:
+            verdict = "not judged"
+            note = "the joint evidence failed (" + "; ".join(
+                f"{k}: {v}" for k, v in je["estimators"].items() if str(v).startswith("failed")) + ")"
+        else:
+            verdict = "shared, kept" if needed else "flagged: not shared"
+            note = (f"the log evidence of {meas.source} and {other.source} together is {d:+.1f} nats "
+                    f"higher with it shared than {_ALTERNATIVE[je['best_alternative']]}")
+            note += (": both recordings need it" if needed else
+                     f" (< {MIN_DELTA_LOG_Z:g}): a term only one recording needs")
+        failed = [k for k in ("neither", "first_only") if je[k] is None]
+        if needed is not None and failed:
+            note += (f" (the evidence {_ALTERNATIVE[failed[0]]} failed: compared with the other "
+                     "alternative only)")
+        if apart and not d_b < MIN_DELTA_LOG_Z:  # B uses the term (a term B does without: values moot)
             pairs = ", ".join(f"{a['name']} {_fmt(a['first'], a['unit'])} here, "
                               f"{_fmt(a['other'], a['unit'])} there" for a in apart)
-            note += (f"; but its values disagree ({pairs}, beyond a factor "
+            verdict = "flagged: other values"
+            note += (f"; its values disagree ({pairs}, beyond a factor "
                      f"{factor:.3g} and {VALUE_SE:g} standard errors): the two recordings do not use it "
                      "for the same thing (another feature there, or values traded against the other "
                      "terms)")
-        if needed is False or (apart and needed):
+        if needed is False or verdict == "flagged: other values":
             flagged.append(f.physics)
-        terms.append({"physics": f.physics, "delta_log_evidence_other": d if math.isfinite(d) else None,
-                      "needed_by_other": needed, "model_without": m0.label, "note": note, "method": how,
+        terms.append({"physics": f.physics, "delta_log_z_joint": d, "log_z_joint": {
+                          k: je[k] for k in ("shared", "neither", "first_only")},
+                      "joint_estimators": je["estimators"], "best_alternative": je["best_alternative"],
+                      "needed_by_other": needed, "verdict": verdict,
+                      "delta_log_evidence_other": d_b if math.isfinite(d_b) else None,
+                      "model_without": m0.label, "note": note, "method": JOINT_METHOD,
                       "values_agree": None if apart is None else not apart, "values_apart": apart or []})
     rec = {"source": str(other.source), "delta_m_kg": delta_m, "final_model": final.label,
-           "rms_rel_residual_other": fb.rms_rel_residual,
-           "log_z_final": lz if math.isfinite(lz) else None, "terms": terms, "flagged": flagged}
-    if delta_m is not None and meas is not None:
+           "method": JOINT_METHOD, "per_run": list(per_run), "rms_rel_residual_other": fb.rms_rel_residual,
+           "log_z_final": lz if math.isfinite(lz) else None,
+           "log_z_joint": lz_joint[0] if math.isfinite(lz_joint[0]) else None,
+           # the final model's joint log Z with the other choice of R0 (shared, or each recording's)
+           "log_z_joint_other_r0": lz_r0[0] if math.isfinite(lz_r0[0]) else None,
+           "terms": terms, "flagged": flagged}
+    if delta_m is not None:
         rec["added_mass"] = {}
         for which, fit in (("baseline", diag.baseline_fit), ("final", diag.final_fit)):
             try:
@@ -216,6 +259,11 @@ def check_with(diag, other: Measurement, delta_m: float | None = None, *, meas: 
                 "consistency_p_value": r.consistency["p_value"], "consistency_F": r.consistency["F"],
                 "rms_rel_residual": list(r.rms_rel_residual)}
     return rec
+
+
+#: the alternative a finding's joint evidence was measured against, in words
+_ALTERNATIVE = {"neither": "without it in either recording",
+                "first_only": "with it in the first recording alone"}
 
 
 def named_ids(diag) -> list[str]:

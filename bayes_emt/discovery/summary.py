@@ -188,14 +188,18 @@ def joint_lines(j: dict) -> list[str]:
     those flagged, the second recording's own diagnosis; the joint added-mass fit of the final model
     (moving mass, force factor) when a mass was given."""
     terms = j["terms"]
-    both = [t["physics"] for t in terms if t.get("needed_by_other") and t.get("values_agree") is not False]
-    other = [t["physics"] for t in terms if t.get("needed_by_other") and t.get("values_agree") is False]
-    flag = [t["physics"] for t in terms if t.get("needed_by_other") is False]
-    parts = [f"needed by both: {', '.join(both) or 'none'}"]
-    if other:
-        parts.append(f"used with other values there (flagged): {', '.join(other)}")
-    if flag:
-        parts.append(f"not needed there (flagged): {', '.join(flag)}")
+    if j.get("method") == "laplace-joint":  # one evidence of both recordings per finding
+        parts = _joint_verdicts(terms)
+    else:  # a record of the earlier check (the other recording's evidence alone)
+        need = [t for t in terms if t.get("needed_by_other")]
+        both = [t["physics"] for t in need if t.get("values_agree") is not False]
+        other = [t["physics"] for t in need if t.get("values_agree") is False]
+        flag = [t["physics"] for t in terms if t.get("needed_by_other") is False]
+        parts = [f"needed by both: {', '.join(both) or 'none'}"]
+        if other:
+            parts.append(f"used with other values there (flagged): {', '.join(other)}")
+        if flag:
+            parts.append(f"not needed there (flagged): {', '.join(flag)}")
     sr = j.get("search")
     if sr:
         only = [t["physics"] for t in sr.get("only_other", ())]
@@ -208,5 +212,21 @@ def joint_lines(j: dict) -> list[str]:
         out.append(f"joint added-mass fit, final {a['model']}: m {a['m_kg']:.4g} kg, "
                    f"Bl {a['Bl_N_per_A']:.4g} "
                    f"N/A, k {a['k_N_per_m']:.4g} N/m, R0 {a['R0_ohm']:.4g} ohm, consistency p "
-                   f"{a['consistency_p_value']:.3g}")
+                   f"{a['consistency_p_value']:.3g}" + (" (F-test, a diagnostic: the verdicts are the "
+                                                        "joint evidence's)" if j.get("method") else ""))
     return out
+
+
+def _joint_verdicts(terms) -> list[str]:
+    """The joint evidence's verdicts in words, each finding with its Δ log Z_joint [nats]."""
+    groups: dict[str, list[str]] = {}
+    for t in terms:
+        d = t.get("delta_log_z_joint")
+        groups.setdefault(t.get("verdict", "not judged"), []).append(
+            t["physics"] + ("" if d is None else f" (joint delta log Z {d:+.1f} nats)"))
+    words = {"shared, kept": "shared by both, kept",
+             "flagged: not shared": "not shared (flagged: one recording's alone)",
+             "flagged: other values": "used with other values there (flagged)",
+             "not judged": "not judged (the joint evidence failed)"}
+    parts = [f"{words.get(v, v)}: {', '.join(g)}" for v, g in groups.items()]
+    return parts or ["no finding to check"]

@@ -82,9 +82,12 @@ def register(sub) -> None:
     p.add_argument("--also", action="append", default=[], metavar="FILE[:MASS]",
                    help="a second recording of the same transducer (with the mass added for it: kg, or "
                         "with a unit, FILE:100g): every "
-                        "finding is refitted on it with and without the term; one it does not need "
-                        "(delta log Z < 5 nats) is flagged; with a mass the joint added-mass fit is run "
-                        "with the start and the final model; the recording is diagnosed too, and a term "
+                        "finding is judged by one log evidence of both recordings together (the finding "
+                        "shared, in neither, in this one only; each recording its own resonance, "
+                        "damping and coupling); one the pair does not share (joint delta log Z < 5 "
+                        "nats) or the other uses with other values is flagged; with a mass the joint "
+                        "added-mass fit is printed beside (a diagnostic); the recording is diagnosed "
+                        "too, and a term "
                         "only it names is fitted on DATA and flagged when DATA does not need it "
                         "(repeatable)")
     p.add_argument("--no-search-also", action="store_true",
