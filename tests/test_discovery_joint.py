@@ -103,7 +103,7 @@ def test_a_term_the_other_recording_needs_for_another_feature_is_flagged(f2_othe
     if agree:
         assert t["needed_by_other"] is True and t["delta_log_z_joint"] >= 5.0
         assert t["verdict"] == "shared, kept"
-        assert warned == [] and table.rows[0][3] == "yes"
+        assert warned == [] and table.rows[0][4] == "yes"
     else:
         assert t["needed_by_other"] is False and t["delta_log_z_joint"] < 5.0
         assert t["best_alternative"] == "first_only" and t["verdict"] == "flagged: other values"
@@ -111,7 +111,8 @@ def test_a_term_the_other_recording_needs_for_another_feature_is_flagged(f2_othe
         assert apart["omega2"]["first"] == pytest.approx(2 * np.pi * 400.0, rel=0.02)
         assert apart["omega2"]["other"] == pytest.approx(2 * np.pi * 1200.0, rel=0.02)
         assert len(warned) == 1 and "do not use it for the same thing" in warned[0]
-        assert table.rows[0][3] == "no: flagged"
+        assert table.rows[0][4] == "no: flagged"
+    assert table.rows[0][2] == t["delta_log_z_joint"]  # the verdict's number, beside B's own
 
 
 def test_values_disagree_only_beyond_the_factor_and_the_standard_errors():
@@ -224,6 +225,6 @@ def test_searching_the_second_recording_flags_a_term_only_it_needs():
     assert back.joint == out.joint
     # the diagnosis's tables (report, text summary) carry the joint record both ways
     table = next(t for t in out.tables() if "joint evidence" in t.title)
-    assert {(r[0], r[1], r[3]) for r in table.rows} == {
+    assert {(r[0], r[1], r[4]) for r in table.rows} == {
         ("semi_inductance", "this", "yes"), ("measurement_artifact", "the other only", "no: flagged")}
     assert "I -> " in table.notes[0]

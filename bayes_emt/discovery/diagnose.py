@@ -372,7 +372,8 @@ class Diagnosis(Record):
 
 def _joint_table(source: str, j: dict) -> Table:
     """One joint-evidence record (:mod:`.joint`) as a table: each term, which recording named it, the
-    other's log Z gain with it [nats], and whether both need it (with the same values)."""
+    gain of one log evidence of both recordings with it shared [nats] (the verdict's number), the
+    other recording's own log Z gain with it [nats], and whether both need it (with the same values)."""
     needed = {True: "yes", False: "no: flagged"}
 
     def verdict(t):  # a term the other needs with other values is another feature there
@@ -383,18 +384,20 @@ def _joint_table(source: str, j: dict) -> Table:
             return "yes (values not compared: a fit without covariance)"
         return v
 
-    rows = tuple((t["physics"], "this", t["delta_log_evidence_other"], verdict(t)) for t in j["terms"])
+    rows = tuple((t["physics"], "this", t.get("delta_log_z_joint"), t["delta_log_evidence_other"], verdict(t))
+                 for t in j["terms"])
     notes = ()
     if "search" in j:
         sr = j["search"]
         first = {True: "yes: this search did not name it", False: "no: flagged"}
-        rows += tuple((t["physics"], "the other only", t["delta_log_evidence_first"],
+        rows += tuple((t["physics"], "the other only", None, t["delta_log_evidence_first"],
                        first.get(t["needed_by_first"], "-")) for t in sr["only_other"])
         notes = (f"the other recording diagnosed from the same start: {sr['baseline_model']} -> "
                  f"{sr['final_model']} ({', '.join(sr['findings']) or 'no finding'}; {sr['seconds']:.0f} s)",)
     dm = "" if j.get("delta_m_kg") is None else f", {j['delta_m_kg']:g} kg added"
     return Table(f"{source}: joint evidence with {j['source']}{dm}",
-                 ("physics", "named by", "the other recording's delta log Z [nats]", "needed by both"),
+                 ("physics", "named by", "joint delta log Z [nats]",
+                  "the other recording's delta log Z [nats]", "needed by both"),
                  rows, notes)
 
 
