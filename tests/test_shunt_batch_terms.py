@@ -108,11 +108,6 @@ def test_every_catalogue_term_batched_equals_one_at_a_time(term):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured: on draw 2 the batch's Rs is -8.421650 ohm against the "
-                   "one-at-a-time design's -8.421681 ohm (3.7e-6 relative, over the 1e-6 tolerance): the "
-                   "optimum balances the resonance against the design band's low edge, where the one-at-a-"
-                   "time design's Nelder-Mead stops within its own tolerance (it was -24.12 dB "
-                   "against -11.82 dB before the batch searched below the band)")
 def test_two_mode_loudspeaker_batched_equals_one_at_a_time():
     model = build_model("UD+second_resonance")
     theta = model.vector({**LS10_44, "zeta2": 0.02, "omega2": 2500.0, "phi2": 8.0})
@@ -174,9 +169,6 @@ LS10_44_MASS = {"zeta": 0.010203445840507249, "omega0": 197.66884479471202, "phi
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured: the batch now settles every draw (three-peak Newton), "
-                   "but on draw 11 the one-at-a-time design's Nelder-Mead stops off the optimum (Rs 3.68270 "
-                   "against the batch's 3.65965 ohm; -16.15357 dB against the batch's -16.15372 dB)")
 def test_three_equal_peaks_batched_equals_one_at_a_time():
     model = build_model("NL(2)+second_resonance+suspension_creep")
     theta = model.vector(LS10_44_MASS)

@@ -148,6 +148,35 @@ def _hull_weights(g):
     return lam
 
 
+def _active_pair(pb: PeakBatch, skip=None):
+    """The pair of peaks the two-peak step and check use: the two highest (:func:`_two_peaks`), except
+    where a third distinct peak lies within :data:`_TRI_TOL` of the highest and the three gradients'
+    hull weights (:func:`_hull_weights`) are not all positive: there the peak with the most negative
+    weight is dropped (its height falls along the direction that lowers the other two, so the
+    optimum is the other pair's; LS10-44 added-mass: the edge and the upper resonance peak, the
+    lower one 4e-7 above the edge at the start of the step). ``skip`` (m,): draws to leave as the
+    two highest. Returns :func:`_two_peaks`'s tuple, then ``(l3, w3, g3, ok3, lam, near)``."""
+    lnh, lnw, g, ok = _two_peaks(pb)
+    l3, w3, g3, ok3 = _three_peaks(pb)
+    near = ok3 & (l3[:, 0] - l3[:, 2] < _TRI_TOL)
+    if skip is not None:
+        near &= ~skip
+    lam = np.full((near.size, 3), np.nan)
+    k = np.flatnonzero(near)
+    if k.size and g3 is not None:
+        lam[k] = _hull_weights(g3[k])
+        drop = k[np.isfinite(lam[k]).all(axis=1) & (lam[k] <= 0).any(axis=1)]
+        if drop.size:
+            out = np.argmin(lam[drop], axis=1)
+            keep = np.array([[1, 2], [0, 2], [0, 1]])[out]
+            r = drop[:, None]
+            order = np.argsort(w3[r, keep], axis=1)  # by frequency, as _two_peaks orders its pair
+            keep = np.take_along_axis(keep, order, axis=1)
+            lnh[drop], lnw[drop], g[drop] = l3[r, keep], w3[r, keep], g3[r, keep]
+            ok[drop] = True
+    return lnh, lnw, g, ok, l3, w3, g3, ok3, lam, near
+
+
 def _three_residuals(bp, rows, rs, cs, lnh, lnw, g):
     """The two equations of a three-equal-peak optimum and their Jacobian in ``(Rs, ln Cs)``:
     ``(F (m, 2), J (m, 2, 2))``. Three true peaks: ``ln h1 − ln h2`` and ``ln h1 − ln h3``. With the
@@ -303,13 +332,14 @@ def design_draws(bp: BatchPlant, start: tuple[float, float], *, R0_start: float 
     active = np.arange(n)
     radius, last_sign = np.full(n, _RS_STEP), np.zeros(n)
     three = np.zeros(n, bool)  # the last step taken was a three-peak one
+    was_cut = np.zeros(n, bool)  # the last step was cut to the radius
     iters = 0
     while active.size and iters < max_iter:
         iters += 1
         three[active] = False
         rs, cs = Rs[active], np.exp(lcs[active])
         pb = rc_peaks_batch(bp, rs, cs, active, gradients=True, wide=False)
-        lnh, lnw, g, ok = _two_peaks(pb)
+        lnh, lnw, g, ok, l3, w3, g3, ok3, lam3, near3 = _active_pair(pb, skip=bound[active])
         # a pair with the band's low edge (:func:`~bayes_emt.shunt.batch.peaks.band_edge`) is solved
         # to the edge lying _EDGE_GAP below the other peak: the nominal design's norm jumps where the
         # edge becomes the largest value (its peak search then goes below the band), and its
@@ -345,11 +375,7 @@ def design_draws(bp: BatchPlant, start: tuple[float, float], *, R0_start: float 
         # differences). The two-peak step alternated there between the pair and the single peak a
         # step in ln Cs of ~0.06 merges it into (LS10-44 added-mass NL(2)+second_resonance+
         # suspension_creep: 97 of 100 draws fell back)
-        l3, w3, g3, ok3 = _three_peaks(pb)
-        tri = np.flatnonzero(ok3 & ~b & (l3[:, 0] - l3[:, 2] < _TRI_TOL))
-        if tri.size:
-            lam = _hull_weights(g3[tri])
-            tri = tri[(lam > 0).all(axis=1)]
+        tri = np.flatnonzero(near3 & (lam3 > 0).all(axis=1))
         if tri.size:
             F3, J3 = _three_residuals(bp, active[tri], rs[tri], cs[tri], l3[tri], w3[tri], g3[tri])
             det3 = J3[:, 0, 0] * J3[:, 1, 1] - J3[:, 0, 1] * J3[:, 1, 0]
@@ -367,12 +393,20 @@ def design_draws(bp: BatchPlant, start: tuple[float, float], *, R0_start: float 
         # trust region in Rs: _RS_STEP, doubled while the steps keep being cut in the same direction
         # (SEAS E0018 NL(5)+suspension_creep+winding_capacitance: draws 0.5 ohm from the start walked
         # 0.02 ohm per iteration and ran out of iterations, Newton asking -0.56 .. -0.07 ohm all the way)
+        # A cut step that reverses a cut step is an oscillation between two sides of a kink (a peak
+        # that exists on one side only: LS10-44 added-mass NL(2)+second_resonance+suspension_creep,
+        # where the two resonance peaks of the three-peak optimum coexist only within ~0.01 ohm and
+        # the iterate jumped +-0.02 ohm between the two single-peak sides for 25 iterations): the
+        # radius halves until the iterate lands where both exist
         rad = radius[active]
         sgn = np.sign(dR)
-        grow = (np.abs(dR) > rad) & (sgn == last_sign[active])
+        cut = np.abs(dR) > rad
+        grow = cut & (sgn == last_sign[active])
         same = sgn == last_sign[active]
-        rad = np.where(grow, np.minimum(2 * rad, _RS_STEP_MAX), np.where(same, rad, _RS_STEP))
-        radius[active], last_sign[active] = rad, sgn
+        swing = cut & (sgn == -last_sign[active]) & was_cut[active]
+        rad = np.where(grow, np.minimum(2 * rad, _RS_STEP_MAX),
+                       np.where(same, rad, np.where(swing, 0.5 * np.minimum(rad, _RS_STEP), _RS_STEP)))
+        radius[active], last_sign[active], was_cut[active] = rad, sgn, cut
         scale = np.minimum(1.0, np.minimum(rad / np.maximum(np.abs(dR), 1e-300),
                                            0.1 / np.maximum(np.abs(dU), 1e-300)))
         ag = active[good]
@@ -388,9 +422,8 @@ def design_draws(bp: BatchPlant, start: tuple[float, float], *, R0_start: float 
             progress(n - active.size, n)
     Cs = np.exp(lcs)
     pb = rc_peaks_batch(bp, Rs, Cs, gradients=True)
-    lnh, _, g, ok = _two_peaks(pb)
+    lnh, lnw, g, ok, l3, w3, g3, ok3, lam3, near3 = _active_pair(pb, skip=bound)
     margin = bp.margin(Rs, Cs)
-    lnw = _two_peaks(pb)[1]
     equal = np.abs(_balance(bp, np.arange(n), Rs, Cs, lnh, lnw)) < 1e-7
     edge = _edge_first(None, lnw, np.arange(n), bp)
     # the weight λ on the lower peak's gradient that cancels the Rs-components:
@@ -411,12 +444,10 @@ def design_draws(bp: BatchPlant, start: tuple[float, float], *, R0_start: float 
     kkt = weight_ok & (lam * g[:, 0, 1] + (1 - lam) * g[:, 1, 1] < 0)
     on_bound = ok & bound & equal & kkt
     # three equal peaks: both equations met and zero in the convex hull of the three gradients
-    l3, w3, g3, ok3 = _three_peaks(pb)
-    tri = np.flatnonzero(ok3 & ~bound & ~(interior | on_bound))
+    tri = np.flatnonzero(near3 & ~(interior | on_bound))
     if tri.size:
         F3, _ = _three_residuals(bp, tri, Rs[tri], Cs[tri], l3[tri], w3[tri], g3[tri])
-        lam = _hull_weights(g3[tri])
-        triple = (np.abs(F3) < 1e-7).all(axis=1) & (lam >= 0).all(axis=1)
+        triple = (np.abs(F3) < 1e-7).all(axis=1) & (lam3[tri] >= 0).all(axis=1)
         interior[tri[triple]] = True
     fine = (interior | on_bound) & (margin > 0)
     fine[active] = False
