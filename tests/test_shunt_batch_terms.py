@@ -173,3 +173,18 @@ def test_three_equal_peaks_batched_equals_one_at_a_time():
     model = build_model("NL(2)+second_resonance+suspension_creep")
     theta = model.vector(LS10_44_MASS)
     _compare(model, _draws(model, theta, 20), max_fallback=1)
+
+
+def test_hull_weights_are_the_three_peak_optimality_condition():
+    """The weights with sum 1 that cancel three gradients: all >= 0 exactly when zero lies in the
+    triangle of the gradients (the min-max optimality condition at three equal peaks)."""
+    from bayes_emt.shunt.batch.design import _hull_weights
+
+    g = np.array([[[1.0, 0.0], [-1.0, 1.0], [-1.0, -1.0]],     # origin inside the triangle
+                  [[1.0, 0.2], [2.0, 1.0], [1.5, -1.0]],       # all to the right: outside
+                  [[1.0, 0.0], [2.0, 0.0], [3.0, 0.0]]])       # collinear: no weights
+    lam = _hull_weights(g)
+    assert np.allclose(lam[:2].sum(axis=1), 1.0, atol=1e-12)
+    assert np.allclose(np.einsum("mk,mkj->mj", lam[:2], g[:2]), 0.0, atol=1e-12)
+    assert (lam[0] > 0).all() and (lam[1] < 0).any()
+    assert np.isnan(lam[2]).all()
