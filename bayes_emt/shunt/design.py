@@ -36,6 +36,7 @@ from .._json import strict_json
 from .._record import register_kind
 from ..errors import DataFormatError
 from ..models import Model
+from .minimax import minimax_polish
 from .receptance import Plant, rc_impedance
 from .records import design_summary, html_table, read_json_record
 from .safety import check_margin
@@ -408,6 +409,7 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
             "start": {"Rs": rs0, "Cs": cs0}}
     rs, lcs = _polish(plant, model, theta, grid, float(res.x[0]), float(res.x[1]), rnet, lcs_max, info,
                       bandwidth)
+    rs, lcs = minimax_polish(plant, model, theta, grid, rs, lcs, lcs_max, info, bandwidth)
     Cs = math.exp(lcs)
     ev = evaluate_rc_shunt(model, theta, rs, Cs, plant=plant, grid=grid, bandwidth=bandwidth)
     if not ev.stable:
