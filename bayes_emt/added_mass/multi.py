@@ -245,8 +245,28 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
                         re=re_info)
 
 
+class JointRuns:
+    """What a density over several recordings' joint vector does with it (``joint.params`` first,
+    then ``n_noise`` noise scales per run; ``liks`` one likelihood per run): shared by
+    :class:`MultiMassLikelihood` and :class:`~bayes_emt.added_mass.pair.PairLikelihood`."""
+
+    @property
+    def ndim(self) -> int:
+        return len(self.params)
+
+    def run_thetas(self, x) -> list[np.ndarray]:
+        """Each run's full vector (model parameters, then its noise scales) from ``x (..., ndim)``."""
+        x = np.asarray(x, float)
+        p, n = len(self.joint.params), self.n_noise
+        return [np.concatenate([th, x[..., p + n * i : p + n * i + n]], axis=-1)
+                for i, th in enumerate(self.joint.thetas(x[..., :p]))]
+
+    def __call__(self, x) -> np.ndarray:
+        return sum(lik(th) for lik, th in zip(self.liks, self.run_thetas(x), strict=True))
+
+
 @dataclass(frozen=True, eq=False)
-class MultiMassLikelihood(SamplingSpaceDensity):
+class MultiMassLikelihood(JointRuns, SamplingSpaceDensity):
     """``Σ_runs log p(Y_run | x)`` for the joint vector of :class:`MultiMassModel` plus each run's
     noise scales (``sigma_rel_run<i>``, ``sigma_abs_run<i>``; run 0 is the reference), Gaussian;
     with ``noise="correlated"`` each run also has its own model discrepancy (``sigma_disc_run<i>``,
@@ -273,10 +293,6 @@ class MultiMassLikelihood(SamplingSpaceDensity):
         return self.joint.model
 
     @property
-    def ndim(self) -> int:
-        return len(self.params)
-
-    @property
     def label(self) -> str:
         return f"{len(self.runs)} added-mass runs, model {self.model.label}"
 
@@ -285,15 +301,6 @@ class MultiMassLikelihood(SamplingSpaceDensity):
         return {"model": f"{self.model.label} multi-mass", "names": list(self.params.names),
                 **({"noise": self.noise} if self.noise != "white" else {}),
                 "deltas": list(self.joint.deltas), "data_sha256": _sha256(data), "source": self.label}
-
-    def run_thetas(self, x) -> list[np.ndarray]:
-        x = np.asarray(x, float)
-        p, n = len(self.joint.params), self.n_noise
-        return [np.concatenate([th, x[..., p + n * i : p + n * i + n]], axis=-1)
-                for i, th in enumerate(self.joint.thetas(x[..., :p]))]
-
-    def __call__(self, x) -> np.ndarray:
-        return sum(lik(th) for lik, th in zip(self.liks, self.run_thetas(x), strict=True))
 
 
 def sample_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: Model, *,

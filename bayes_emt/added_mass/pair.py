@@ -29,6 +29,7 @@ from ..measurement import Measurement
 from ..models import Model
 from ..params import ParamSet
 from .fit import _rel_residuals, solve_joint
+from .multi import JointRuns
 from .posterior import _run_noise
 
 __all__ = ["PairModel", "PairFit", "PairLikelihood", "fit_pair", "run_models", "RUN_SUFFIXES", "MECHANICS"]
@@ -183,7 +184,7 @@ def fit_pair(runs: Sequence[Measurement], joint, fits: Sequence[FitResult], *,
 
 
 @dataclass(frozen=True, eq=False)
-class PairLikelihood(SamplingSpaceDensity):
+class PairLikelihood(JointRuns, SamplingSpaceDensity):
     """``Σ_runs log p(Y_run | θ_run(x))`` for the joint vector of ``joint`` (a :class:`PairModel` or a
     :class:`~bayes_emt.added_mass.multi.MultiMassModel`) plus each run's white Gaussian noise
     scales (``sigma_rel_run<i>``, ``sigma_abs_run<i>``, the noise priors of :mod:`bayes_emt.params`),
@@ -202,17 +203,3 @@ class PairLikelihood(SamplingSpaceDensity):
         for i in range(len(self.runs)):
             params = params + _run_noise(noise, f"run{i}")
         object.__setattr__(self, "params", params)
-
-    @property
-    def ndim(self) -> int:
-        return len(self.params)
-
-    def run_thetas(self, x) -> list[np.ndarray]:
-        """Each run's full vector (model parameters, then its noise scales) from ``x (..., ndim)``."""
-        x = np.asarray(x, float)
-        p, n = len(self.joint.params), self.n_noise
-        return [np.concatenate([th, x[..., p + n * i : p + n * i + n]], axis=-1)
-                for i, th in enumerate(self.joint.thetas(x[..., :p]))]
-
-    def __call__(self, x) -> np.ndarray:
-        return sum(lik(th) for lik, th in zip(self.liks, self.run_thetas(x), strict=True))
