@@ -365,18 +365,9 @@ def fit_log_evidence(meas: Measurement, fit, *, lik: Likelihood | None = None) -
                                      float(fit.model.as_dict(fit.theta)[step]), z0, scale, warp, step)
         if got is not None:
             return Evidence(got[0], STEP_METHOD, got[1], ((step,),))
-    mode = z0
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            res = laplace_evidence(blocked(lik.log_posterior_z), lik.params, z0, scale, warp=warp)
-        if res.ok and math.isfinite(res.log_z):
-            return Evidence(float(res.log_z), "laplace", n_calls=int(res.n_calls))
-        why = res.message or "the Laplace screen failed"
-        if np.all(np.isfinite(res.mode_z)):
-            mode = res.mode_z
-    except (ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
-        why = str(e)
+    ev, why, mode = laplace_screen(blocked(lik.log_posterior_z), lik.params, z0, scale, warp)
+    if ev is not None:
+        return ev
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -393,6 +384,31 @@ def fit_log_evidence(meas: Measurement, fit, *, lik: Likelihood | None = None) -
                                               Warp.of(lik.params))
     except (ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
         return Evidence(float("nan"), "failed", f"{why}; fallback failed: {e}")
+    return fallback_evidence(lz, note, flat, why)
+
+
+def laplace_screen(log_q, params, z0, scale, warp) -> tuple[Evidence | None, str, np.ndarray]:
+    """The Laplace screen (:func:`~.laplace.laplace_evidence`) of ``log_q`` from ``z0``:
+    ``(evidence, "", z0)`` when it succeeds, else ``(None, why it failed, the mode to start the
+    subspace fallback from)`` (the screen's own mode when it found a finite one, else ``z0``)."""
+    mode = z0
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = laplace_evidence(log_q, params, z0, scale, warp=warp)
+        if res.ok and math.isfinite(res.log_z):
+            return Evidence(float(res.log_z), "laplace", n_calls=int(res.n_calls)), "", mode
+        why = res.message or "the Laplace screen failed"
+        if np.all(np.isfinite(res.mode_z)):
+            mode = res.mode_z
+    except (ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
+        why = str(e)
+    return None, why, mode
+
+
+def fallback_evidence(lz: float, note: str, flat, why: str) -> Evidence:
+    """The subspace fallback's result (:func:`subspace_laplace`'s ``lz, note, flat``) after the
+    screen failed for ``why``: method ``"laplace_subspace"``, or ``"failed"`` when ``lz`` is not finite."""
     if not math.isfinite(lz):
         return Evidence(float("nan"), "failed", f"{why}; fallback failed: {note}")
-    return Evidence(lz, "laplace_subspace", f"{why}: {note}", flat)
+    return Evidence(float(lz), "laplace_subspace", f"{why}: {note}", flat)

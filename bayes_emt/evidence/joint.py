@@ -27,15 +27,13 @@ holds the step, since the joint likelihood jumps at each of their points.
 
 from __future__ import annotations
 
-import math
 import warnings
 from types import SimpleNamespace
 
 import numpy as np
 
 from ..inference.start import extra_noise_start, noise_start, posterior_mode
-from .fit_evidence import Evidence, blocked, subspace_laplace
-from .laplace import laplace_evidence
+from .fit_evidence import Evidence, blocked, fallback_evidence, laplace_screen, subspace_laplace
 from .step_intervals import STEP_METHOD, step_interval_evidence, step_parameter
 from .warp import Warp
 
@@ -88,18 +86,9 @@ def joint_log_evidence(density, fit, seed: int = 0) -> Evidence:
                                      name)
         if got is not None:
             return Evidence(got[0], STEP_METHOD, got[1], ((name,),))
-    mode = z0
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            res = laplace_evidence(log_q, density.params, z0, scale, warp=warp)
-        if res.ok and math.isfinite(res.log_z):
-            return Evidence(float(res.log_z), "laplace", n_calls=int(res.n_calls))
-        why = res.message or "the Laplace screen failed"
-        if np.all(np.isfinite(res.mode_z)):
-            mode = res.mode_z
-    except (ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
-        why = str(e)
+    ev, why, mode = laplace_screen(log_q, density.params, z0, scale, warp)
+    if ev is not None:
+        return ev
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -108,9 +97,7 @@ def joint_log_evidence(density, fit, seed: int = 0) -> Evidence:
                                               Warp.of(density.params), seed=seed)
     except (ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
         return Evidence(float("nan"), "failed", f"{why}; fallback failed: {e}")
-    if not math.isfinite(lz):
-        return Evidence(float("nan"), "failed", f"{why}; fallback failed: {note}")
-    return Evidence(float(lz), "laplace_subspace", f"{why}: {note}", flat)
+    return fallback_evidence(lz, note, flat, why)
 
 
 def _joint_step(density) -> tuple[str, np.ndarray] | None:
