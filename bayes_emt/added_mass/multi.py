@@ -164,6 +164,47 @@ class MultiMassFit:
         return self.joint.params.vector(self.values)
 
 
+def run_scales(models: Sequence[Model], runs: Sequence[Measurement], fits: Sequence[FitResult]
+               ) -> tuple[list[float], list[float]]:
+    """``(chi2, scale)`` of each run's separate fit: its relative residuals' sum of squares and
+    rms per degree of freedom (all 1 when any is 0), the weights of a joint least-squares fit."""
+    chi2, noise = [], []
+    for m, meas, f in zip(models, runs, fits, strict=True):
+        r = _rel_residuals(m, meas, f.theta)
+        chi2.append(float(r @ r))
+        noise.append(math.sqrt(chi2[-1] / max(r.size - m.ndim, 1)))
+    if not all(s > 0 for s in noise):
+        noise = [1.0] * len(runs)
+    return chi2, noise
+
+
+def scaled_residuals(joint, models: Sequence[Model], runs: Sequence[Measurement], noise: Sequence[float]):
+    """The joint fit's residual function of sampling-space ``z``: each run's relative residuals under
+    its model at the run vector ``joint`` implies, divided by its ``noise`` scale (1e10 where not finite)."""
+    def batch(z):
+        ths = joint.thetas(joint.params.from_z(z))
+        out = np.concatenate([_rel_residuals(m, meas, th) / s
+                              for m, meas, th, s in zip(models, runs, ths, noise, strict=True)], axis=-1)
+        return np.where(np.isfinite(out), out, 1e10)
+    return batch
+
+
+def joint_bounds_z(joint) -> tuple[np.ndarray, np.ndarray]:
+    """The joint vector's bounds in sampling space, the first (the moving mass ``m``) raised so that
+    every loaded mass ``m + Δm`` stays positive when a ``Δm`` is negative."""
+    lo, hi = joint.params.bounds_z()
+    neg = [d for d in joint.deltas if d < 0]
+    if neg:
+        lo[0] = max(lo[0], float(joint.params[0].to_z(-min(neg) * (1 + 1e-9))))
+    return lo, hi
+
+
+def rms_rel(models: Sequence[Model], runs: Sequence[Measurement], thetas) -> tuple[float, ...]:
+    """Each run's rms relative residual ``|Y_model − Y|/|Y|`` under its model and vector."""
+    return tuple(float(np.sqrt(np.mean(np.abs(m.admittance(ms.omega, t) - ms.Y) ** 2 / np.abs(ms.Y) ** 2)))
+                 for m, ms, t in zip(models, runs, thetas, strict=True))
+
+
 def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: Model, *,
                    fits: Sequence[FitResult] | None = None, re: tuple[float, float] | None = None,
                    max_nfev: int | None = None) -> MultiMassFit:
@@ -186,20 +227,10 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
     jm = MultiMassModel(model, tuple(deltas))
     if fits is None:
         fits = [fit_admittance(meas, model, re=meter) for meas in runs]
-    chi2_sep, noise = [], []
-    for meas, f in zip(runs, fits, strict=True):
-        r = _rel_residuals(model, meas, f.theta)
-        chi2_sep.append(float(r @ r))
-        noise.append(math.sqrt(chi2_sep[-1] / max(r.size - model.ndim, 1)))
-    if not all(s > 0 for s in noise):
-        noise = [1.0] * len(runs)
+    models = (model,) * len(runs)
+    chi2_sep, noise = run_scales(models, runs, fits)
     i_r0 = jm.names.index("R0") if "R0" in jm.names else None
-
-    def batch_data(z):
-        x = jm.params.from_z(z)
-        out = np.concatenate([_rel_residuals(model, meas, th) / s
-                              for meas, th, s in zip(runs, jm.thetas(x), noise, strict=True)], axis=-1)
-        return np.where(np.isfinite(out), out, 1e10)
+    batch_data = scaled_residuals(jm, models, runs, noise)
 
     def batch(z):
         if meter is None or i_r0 is None:
@@ -209,10 +240,7 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
         return np.concatenate([batch_data(z), np.where(np.isfinite(pen), pen, 1e10)], axis=-1)
 
     x0 = jm.start(fits)
-    lo, hi = jm.params.bounds_z()
-    neg = [d for d in jm.deltas if d < 0]
-    if neg:
-        lo[0] = max(lo[0], float(jm.params[0].to_z(-min(neg) * (1 + 1e-9))))
+    lo, hi = joint_bounds_z(jm)
     p = x0.size
     sol, r, cov, x, se = solve_joint(batch, jm.params, x0, lo, hi, max_nfev)
     re_info = None if meter is None else meter.to_dict()
@@ -235,8 +263,7 @@ def fit_multi_mass(runs: Sequence[Measurement], deltas: Sequence[float], model: 
     q, dof = len(runs) * model.ndim - p, r.size - len(runs) * model.ndim
     F = max(chi2_joint - chi2_s, 0.0) / max(q, 1) / (chi2_s / dof) if chi2_s > 0 and dof > 0 else float("nan")
     pval = float(stats.f.sf(F, max(q, 1), max(dof, 1))) if math.isfinite(F) else float("nan")
-    rms = tuple(float(np.sqrt(np.mean(np.abs(model.admittance(ms.omega, t) - ms.Y) ** 2 / np.abs(ms.Y) ** 2)))
-                for ms, t in zip(runs, thetas, strict=True))
+    rms = rms_rel(models, runs, thetas)
     return MultiMassFit(joint=jm, values=dict(zip(jm.names, map(float, x), strict=True)),
                         stderr=dict(zip(jm.names, map(float, se), strict=True)), cov_z=cov,
                         runs=tuple(model.as_dict(t) for t in thetas), noise_rel=tuple(noise),
@@ -249,6 +276,18 @@ class JointRuns:
     """What a density over several recordings' joint vector does with it (``joint.params`` first,
     then ``n_noise`` noise scales per run; ``liks`` one likelihood per run): shared by
     :class:`MultiMassLikelihood` and :class:`~bayes_emt.added_mass.pair.PairLikelihood`."""
+
+    def _set_runs(self, models: Sequence[Model], noise: str) -> None:
+        """``liks`` (run ``i`` under ``models[i]``, Gaussian with the ``noise`` kind's scales),
+        ``n_noise`` and ``params``: the joint parameters, then each run's noise scales."""
+        spec = noise_param_set("gaussian", None, noise)
+        object.__setattr__(self, "n_noise", len(spec))
+        object.__setattr__(self, "liks", tuple(Likelihood(m, meas, "gaussian", None, spec, noise)
+                                               for m, meas in zip(models, self.runs, strict=True)))
+        params = self.joint.params
+        for i in range(len(self.runs)):
+            params = params + _run_noise(spec, f"run{i}")
+        object.__setattr__(self, "params", params)
 
     @property
     def ndim(self) -> int:
@@ -279,14 +318,7 @@ class MultiMassLikelihood(JointRuns, SamplingSpaceDensity):
     noise: str = "white"
 
     def __post_init__(self):
-        noise = noise_param_set("gaussian", None, self.noise)
-        object.__setattr__(self, "n_noise", len(noise))
-        liks = tuple(Likelihood(self.joint.model, m, "gaussian", None, noise, self.noise) for m in self.runs)
-        object.__setattr__(self, "liks", liks)
-        params = self.joint.params
-        for i in range(len(self.runs)):
-            params = params + _run_noise(noise, f"run{i}")
-        object.__setattr__(self, "params", params)
+        self._set_runs((self.joint.model,) * len(self.runs), self.noise)
 
     @property
     def model(self) -> Model:

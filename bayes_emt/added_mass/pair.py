@@ -17,20 +17,18 @@ as :func:`~bayes_emt.added_mass.multi.fit_multi_mass` does; it starts the joint 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..estimation.results import FitResult
-from ..inference.likelihood import Likelihood, SamplingSpaceDensity, noise_param_set
+from ..inference.likelihood import SamplingSpaceDensity
 from ..measurement import Measurement
 from ..models import Model
 from ..params import ParamSet
-from .fit import _rel_residuals, solve_joint
-from .multi import JointRuns
-from .posterior import _run_noise
+from .fit import solve_joint
+from .multi import JointRuns, joint_bounds_z, rms_rel, run_scales, scaled_residuals
 
 __all__ = ["PairModel", "PairFit", "PairLikelihood", "fit_pair", "run_models", "RUN_SUFFIXES", "MECHANICS"]
 
@@ -151,23 +149,9 @@ def fit_pair(runs: Sequence[Measurement], joint, fits: Sequence[FitResult], *,
     if len(fits) != len(runs) or any(f.model.names != m.names for f, m in zip(fits, models, strict=True)):
         raise ValueError("a joint fit needs one separate fit per recording, of "
                          + ", ".join(m.label for m in models))
-    noise = []
-    for meas, f, m in zip(runs, fits, models, strict=True):
-        r = _rel_residuals(m, meas, f.theta)
-        noise.append(math.sqrt(float(r @ r) / max(r.size - m.ndim, 1)))
-    if not all(s > 0 for s in noise):
-        noise = [1.0] * len(runs)
-
-    def batch(z):
-        ths = joint.thetas(joint.params.from_z(z))
-        out = np.concatenate([_rel_residuals(m, meas, th) / s
-                              for m, meas, th, s in zip(models, runs, ths, noise, strict=True)], axis=-1)
-        return np.where(np.isfinite(out), out, 1e10)
-
-    lo, hi = joint.params.bounds_z()
-    neg = [d for d in joint.deltas if d < 0]
-    if neg:  # every loaded mass m + Δm stays positive
-        lo[0] = max(lo[0], float(joint.params[0].to_z(-min(neg) * (1 + 1e-9))))
+    _, noise = run_scales(models, runs, fits)
+    batch = scaled_residuals(joint, models, runs, noise)
+    lo, hi = joint_bounds_z(joint)
     starts = joint.starts(fits) if hasattr(joint, "starts") else [joint.start(fits)]
     best = None
     for x0 in starts:
@@ -177,10 +161,8 @@ def fit_pair(runs: Sequence[Measurement], joint, fits: Sequence[FitResult], *,
             best = got
     sol, r, cov, x, _se = best
     ths = joint.thetas(x)
-    rms = tuple(float(np.sqrt(np.mean(np.abs(m.admittance(ms.omega, t) - ms.Y) ** 2 / np.abs(ms.Y) ** 2)))
-                for m, ms, t in zip(models, runs, ths, strict=True))
-    return PairFit(joint, np.asarray(x, float), cov, tuple(ths), tuple(noise), rms, float(r @ r),
-                   bool(sol.status > 0))
+    return PairFit(joint, np.asarray(x, float), cov, tuple(ths), tuple(noise), rms_rel(models, runs, ths),
+                   float(r @ r), bool(sol.status > 0))
 
 
 @dataclass(frozen=True, eq=False)
@@ -194,12 +176,4 @@ class PairLikelihood(JointRuns, SamplingSpaceDensity):
     runs: tuple[Measurement, ...]
 
     def __post_init__(self):
-        noise = noise_param_set("gaussian", None, "white")
-        object.__setattr__(self, "n_noise", len(noise))
-        liks = tuple(Likelihood(m, meas, "gaussian", None, noise, "white")
-                     for m, meas in zip(run_models(self.joint, len(self.runs)), self.runs, strict=True))
-        object.__setattr__(self, "liks", liks)
-        params = self.joint.params
-        for i in range(len(self.runs)):
-            params = params + _run_noise(noise, f"run{i}")
-        object.__setattr__(self, "params", params)
+        self._set_runs(run_models(self.joint, len(self.runs)), "white")
