@@ -99,7 +99,7 @@ __all__ = ["thiele_small", "from_fit", "from_posterior", "evidence_supported_mod
 
 #: the candidates of the evidence-supported default model (``model=None``): the coil models, then
 #: the catalogue terms of :data:`AUTO_TERMS` on the most probable of them
-AUTO_CANDIDATES = ("II", "III", "UD", "NL(3)")
+AUTO_CANDIDATES = DEFAULT_SPREAD_BASES
 #: physics terms tried on the most probable coil model (a lossy coil beyond the model's eddy
 #: currents; the suspension's viscoelastic creep below resonance)
 AUTO_TERMS = ("semi_inductance", "suspension_creep")
@@ -331,6 +331,22 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                                      "treat their intervals as lower bounds"})
         if mode == "point":
             x = mfit.theta[None, :]
+        elif mode == "component":  # a mixture component: the joint fit's Gaussian approximation
+            x = mfit.theta[None, :]
+            cov = mfit.cov_z
+            why = ("the joint fit has no covariance" if cov is None or not np.all(np.isfinite(cov))
+                   else "its joint component would be the white fit's Gaussian approximation"
+                   if inp.noise != "white"
+                   else "the joint fit's covariance is not positive semi-definite"
+                   if np.linalg.eigvalsh(0.5 * (cov + cov.T))[0] < -1e-9 * np.abs(np.diag(cov)).max()
+                   else "")
+            if why:
+                warns.append({"code": "mixture_component_failed", "model": model.label, "run": "joint",
+                              "short": "no Gaussian approximation for the model mixture",
+                              "message": f"{model.label} left out of the model mixture: {why}"})
+            else:
+                x = laplace_theta(jm.params, jm.params.to_z(mfit.theta), 0.5 * (cov + cov.T), LAPLACE_DRAWS,
+                                  rng)
         elif mode == "laplace":
             if mfit.cov_z is None:
                 raise DataFormatError(f"the joint fit of {model.label} has no covariance: drop fast")
@@ -344,13 +360,14 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                               "short": "the joint posterior did not meet the stopping rule",
                               "message": "the joint posterior did not meet the stopping rule: "
                                          f"{info['message']}"})
-        if mode != "point":
+        if mode in ("posterior", "laplace"):  # the main model's curve only
             inp.curve = fit_curve(model, jm.thetas(x)[0], inp.meas, float(mfit.rms_rel_residual[0]), inp.seed)
         out = []
         for xx in (x, mfit.theta[None, :]):
             theta = jm.thetas(xx)[0]
             out.append(_complete(free_air(model, theta), model, theta, inp, mms=xx[:, 0]))
         rec = {"model": model.label, "rms": float(np.sqrt(np.mean(np.square(mfit.rms_rel_residual)))),
+               "draws": x.shape[0] > 1,
                "undetermined": undetermined(jm.params, mfit.theta, mfit.cov_z),
                "log_z": _joint_evidence(runs, mfit, prior_model, inp.noise) if inp.evidence else float("nan")}
         return out[0], out[1], rec
@@ -557,8 +574,8 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
                   settings if settings is not None else _ts_sampler(), noise=noise, fits=fits)
     warns: list[dict] = []
     mode = "laplace" if fast else "posterior"
-    # a mixture component per candidate (free air, posterior intervals), else its point values only
-    cand_mode = "component" if method == "free_air" and not fast else "point"
+    # a mixture component per candidate (free air, added masses; not with fast), else its point values only
+    cand_mode = "component" if method in ("free_air", "added_mass") and not fast else "point"
     auto = main is None
     comps: dict[str, tuple] = {}
     if auto:  # the model the evidence supports: rank the candidates first, sample the most probable
@@ -574,7 +591,7 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
         main = parse_model_spec(max(comps, key=lambda m: rank_key(comps[m][2])))
         candidates = [parse_model_spec(m) for m in comps if m != main.label]
     else:
-        candidates = spread_models(main, models_for_spread, _model)
+        candidates = spread_models(main, models_for_spread, _model, AUTO_TERMS)
         inp.evidence = bool(candidates)
     inp.evidence = inp.evidence and not auto  # auto: the main model's evidence is already known
     draws, point_main, rec_main = _estimate(main, method, inp, mode, warns)
@@ -584,16 +601,22 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
     records, points, comp_draws = [rec_main], {rec_main["model"]: point_main}, {rec_main["model"]: draws}
     if auto:
         rec_main["log_z"] = comps[main.label][2]["log_z"]
-    for cand in candidates:
+    pending, extend = list(candidates), not auto and models_for_spread is None
+    while pending:
+        cand = pending.pop(0)
         if cand.label not in comps:  # a spread candidate: its rank is not needed
             _fit_candidates([cand], method, inp, cand_mode, warns, comps, rank=False)
-        if cand.label not in comps:
-            continue
-        cd, pv, rec = comps[cand.label]
-        records.append(rec)
-        points[rec["model"]] = pv
-        if rec.get("draws"):
-            comp_draws[rec["model"]] = cd
+        if cand.label in comps:
+            cd, pv, rec = comps[cand.label]
+            records.append(rec)
+            points[rec["model"]] = pv
+            if rec.get("draws"):
+                comp_draws[rec["model"]] = cd
+        if not pending and extend:  # as the default does: the physics terms on the best coil model too
+            extend = False
+            best = max(records, key=rank_key)["model"]
+            if "+" not in best and best != main.label:
+                pending = [parse_model_spec(f"{best}+{t}") for t in AUTO_TERMS]
     records = select_spread_models(records)
     included = [points[r["model"]] for r in records if r["included"]]
     # the mixture: the main model's posterior and the determined candidates' components, by evidence
@@ -601,6 +624,12 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
                                if r["model"] in comp_draws and (r["determined"] or r is records[0])})
     if main.label not in weights:
         weights = {main.label: 1.0}
+    if not included:  # no candidate is adequate and determined (the best fit left a parameter
+        # undetermined): the spread is over the models the mixture weighs, never empty
+        for r in records:
+            if weights.get(r["model"], 0.0) >= SPREAD_MIN_PROBABILITY:
+                r["included"] = True
+                included.append(points[r["model"]])
     def prob(r):  # the mixture's weight, else the spread's evidence probability
         return weights.get(r["model"], r["probability"] if r["probability"] is not None else 0.0)
 
@@ -638,8 +667,7 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
         mlo, mmed, mhi = (weighted_quantiles(*pooled[name], [0.05, 0.5, 0.95])
                           if len(mv) > 1 else (lo, med, hi))
         params[name] = {"value": float(mmed), "ci90": [float(mlo), float(mhi)], "unit": UNITS[name],
-                        # never empty because a filter left one model: then that model's value alone,
-                        # and the mixture's weights say the evidence leaves no other
+                        # never empty because a filter left no model: then the mixture's models
                         "model_spread": [min(vals), max(vals)] if vals else None,
                         "model_only": {"model": main.label, "value": float(med),
                                        "ci90": [float(lo), float(hi)]}}

@@ -28,7 +28,11 @@ MODEL_SPREAD_METHOD = (
     f"odds) is at least {SPREAD_MIN_PROBABILITY:g}; candidates whose evidence could not be computed are kept "
     "unweighted; a candidate other than the main model with an undetermined parameter carries no weight and "
     "its evidence is not computed")
-DEFAULT_SPREAD_BASES = ("II", "III", "UD")
+#: the coil models every T/S result is weighed against (the evidence-supported default ranks the same
+#: ones): the lossy-inductance, the uniform-core eddy-current models and the ring ladder with two and
+#: three rings (NL's ring count by evidence; with three, the gap inductance Pg often sits at its
+#: prior's edge on real woofers, and that candidate then carries no weight, while NL(2) does)
+DEFAULT_SPREAD_BASES = ("II", "III", "UD", "NL(2)", "NL(3)")
 
 
 def undetermined(params, theta, cov_z) -> list[str]:
@@ -77,17 +81,21 @@ def rank_key(rec: dict) -> tuple:
     return (not rec["undetermined"], math.isfinite(lz), lz if math.isfinite(lz) else -math.inf)
 
 
-def spread_models(main: Model, models_for_spread, model_of) -> list[Model]:
+def spread_models(main: Model, models_for_spread, model_of, terms=()) -> list[Model]:
     """The candidate models of the spread: ``models_for_spread`` (through ``model_of``), else
-    :data:`DEFAULT_SPREAD_BASES` with the main model's physics terms; the main model left out."""
+    :data:`DEFAULT_SPREAD_BASES` with the main model's physics terms, and the main model with each
+    of ``terms`` it does not hold (the physics the evidence-supported default also tries, so that a
+    requested model that leaves it out is weighed against it); the main model left out."""
     if models_for_spread is not None:
         cands = [model_of(m) for m in models_for_spread]
     else:
         suffix = "".join(f"+{t.id}" for t in main.augmentations)
         cands = [parse_model_spec(b + suffix) for b in DEFAULT_SPREAD_BASES]
-    out, seen = [], {main.spec}
+        held = {t.id for t in main.augmentations}
+        cands += [parse_model_spec(f"{main.label}+{t}") for t in terms if t not in held]
+    out, seen = [], {main.label}
     for m in cands:
-        if m.spec not in seen:
-            seen.add(m.spec)
+        if m.label not in seen:
+            seen.add(m.label)
             out.append(m)
     return out

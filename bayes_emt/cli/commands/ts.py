@@ -47,8 +47,8 @@ def register(sub) -> None:
                    "added volume)", description=__doc__.split("\n\n", 1)[1], examples=EXAMPLES)
     p.add_argument("data", help="free-air recording")
     p.add_argument("--model", default=None, metavar="MODEL",
-                   help="model spec (default: the model the evidence supports among II, III, UD, NL(3) and "
-                        "the most probable of them with a semi-inductance or suspension creep)")
+                   help="model spec (default: the model the evidence supports among II, III, UD, NL(2), "
+                        "NL(3) and the most probable of them with a semi-inductance or suspension creep)")
     p.add_argument("--loaded", action="append", default=[], metavar="FILE",
                    help="a recording with an added mass (repeat; each needs its --delta-m, in order)")
     p.add_argument("--delta-m", action="append", type=quantity("mass", sign="nonzero"), default=[],
