@@ -743,7 +743,7 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
         warns += add_definitional(params, pooled, small, plat, int(seed), corrected=intervals == "misfit",
                                   mass_shift=shift)
         inputs["intervals_method"] = DEFINITIONAL_METHOD
-    return ThieleSmall(model=main.spec, method=method, parameters=params, inputs=inputs,
+    return ThieleSmall(model=main.label, method=method, parameters=params, inputs=inputs,
                        warnings=tuple(_dedupe(warns)), model_free=mf, curve=inp.curve,
                        bench_fit=bench_comparison(params, meas.meta.get("bench_fit")))
 

@@ -77,7 +77,7 @@ def fit_curve(model, theta, meas: Measurement, rms_rel: float, seed: int) -> dic
     out = {"f_hz": f.tolist(), "data_abs_z_ohm": np.abs(zd).tolist(),
            "data_phase_deg": np.degrees(np.angle(zd)).tolist(), "fit_abs_z_ohm": np.abs(zmed).tolist(),
            "fit_phase_deg": np.degrees(np.angle(zmed)).tolist(), "band_abs_z_ohm": q(np.abs(zp)),
-           "band_phase_deg": q(np.degrees(np.angle(zp))), "band": BAND, "model": model.spec,
+           "band_phase_deg": q(np.degrees(np.angle(zp))), "band": BAND, "model": model.label,
            "source": meas.source, "rms_rel_residual": float(rms_rel), "n_draws": int(theta.shape[0])}
     bench = _bench(meas)
     if bench is not None:
