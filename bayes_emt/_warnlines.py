@@ -39,7 +39,12 @@ def short_hint(code: str, message: str, width: int = 72) -> str:
     message suggests; otherwise the message's first clause, at most ``width`` characters."""
     if code == "model_inadequate":
         m = re.search(r"up to ([0-9.e+]+) times the noise", message)
-        terms = [t for t in _TERMS if t in message]
+        # the terms the advice names ("try: ..."), less those the model already holds (its label
+        # opens the message: "UD+enclosure_port cannot describe these data: ...")
+        head, _, advice = message.partition("try:")
+        label = head.split(" cannot describe", 1)[0] if " cannot describe" in head else ""
+        held = set(label.split("+")[1:])
+        terms = [t for t in _TERMS if t in (advice or message) and t not in held]
         hint = f"residuals up to {m.group(1)}x the noise" if m else "residuals above the noise"
         return hint + (f"; try {', '.join(terms[:3])}" if terms else "")
     first = " ".join(re.split(r"(?<=[a-z)])\. |; ", message, maxsplit=1)[0].split())
