@@ -25,7 +25,12 @@ downloads it at the pinned commit into ``~/.cache/bayes_emt_truth`` and checks i
 Printed per driver and parameter: each column's value, 90 % interval, the reference, the error
 ``100 (value - reference) / reference`` [%] and whether the interval holds the reference; then per
 column the corpus's coverage (pairs whose interval holds the reference, of all scored pairs) and
-the median half-width ``100 (hi - lo) / 2 / value`` [%]. Writes ``<out>/truth_<label>.json`` (the
+the median half-width ``100 (hi - lo) / 2 / value`` [%], and the agreement rate: pairs whose
+difference is within √2 times the interval's half on the reference's side, i.e. ISO 13528's En
+score at the 90 % level with the reference's uncertainty taken equal to ours (a reference is
+another method's value with an uncertainty of its own: against a reference as uncertain as we are,
+a calibrated 90 % interval holds it in only about 75 % of pairs, and agrees with it in about 90 %).
+Writes ``<out>/truth_<label>.json`` (the
 table, the summary, the package version and commit, timings in CPU seconds) and
 ``<out>/truth_<label>.png`` (intervals as bars against the references, one panel per parameter),
 atomically. ``--label`` names the run (e.g. the branch whose package was imported).
@@ -183,6 +188,11 @@ def score(value_ci: dict | None, ref: float) -> dict | None:
     if ci is not None:
         out["covered"] = bool(ci[0] <= ref <= ci[1])
         out["half_width_pct"] = 100.0 * (ci[1] - ci[0]) / 2.0 / abs(v)
+        # agreement with a reference as uncertain as we are (ISO 13528's En with the reference's
+        # expanded uncertainty taken equal to ours): the difference within sqrt(2) x the interval's
+        # half on the reference's side
+        half = (ci[1] - v) if ref >= v else (v - ci[0])
+        out["agrees"] = bool(abs(v - ref) <= math.sqrt(2.0) * max(half, 0.0))
     return out
 
 
@@ -192,7 +202,9 @@ def summarise(rows: list[dict], column: str) -> dict:
     if not cells:
         return {"pairs": 0}
     cov = sum(c["covered"] for c in cells)
+    agree = sum(c.get("agrees", False) for c in cells)
     return {"pairs": len(cells), "covered": int(cov), "coverage": cov / len(cells),
+            "agreeing": int(agree), "agreement": agree / len(cells),
             "median_half_width_pct": float(np.median([c["half_width_pct"] for c in cells])),
             "median_abs_error_pct": float(np.median([abs(c["error_pct"]) for c in cells]))}
 
@@ -317,7 +329,8 @@ def main(argv=None) -> int:
             print(f"{c}: coverage {s['covered']}/{s['pairs']} = {100 * s['coverage']:.0f} % of "
                   "(driver, parameter) "
                   f"pairs; median 90 % half-width {s['median_half_width_pct']:.2f} %; median |error| "
-                  f"{s['median_abs_error_pct']:.2f} %")
+                  f"{s['median_abs_error_pct']:.2f} %; agreement with a reference as uncertain as the "
+                  f"interval (En, ISO 13528) {s['agreeing']}/{s['pairs']} = {100 * s['agreement']:.0f} %")
     for n in notes:
         print("note:", n)
     load = os.getloadavg()
