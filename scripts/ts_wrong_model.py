@@ -117,8 +117,8 @@ def main(argv=None) -> int:
     text = summarise(recs)
     print(text)
     if not a.no_save:
-        name = ("ts_wrong_model.txt" if a.fit == FIT and a.no_spread else
-                f"ts_wrong_model_{a.fit}{'' if a.no_spread else '_spread'}.txt")
+        name = ("ts_wrong_model.txt" if a.fit == FIT and a.no_spread else f"ts_wrong_model_{a.fit}.txt"
+                if a.fit == "auto" or a.no_spread else f"ts_wrong_model_{a.fit}_spread.txt")
         (RESULTS / name).write_text(text + "\n")
     return 0
 
