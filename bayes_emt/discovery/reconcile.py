@@ -140,7 +140,13 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
     seen: dict[str, tuple] = {}
 
     def add(fit, origin):
-        if fit is None or fit.model.label in seen:
+        if fit is None:
+            return
+        had = seen.get(fit.model.label)
+        # a model reached by two routes (two finals with the same terms, polished from each): the
+        # better optimum (lower chi2) stands for it, whichever route came first, so the comparison
+        # does not depend on the order of the finals (the given start's first)
+        if had is not None and not fit.chi2 < had[0].chi2:
             return
         lz = evidence(fit)
         # every parameter, the coil family's own too (an NL ring pressed to zero, Pg = 1e-16 on
@@ -158,8 +164,9 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
                 m = parse_model_spec(fam + extra)
             except ValueError:
                 continue
-            if m.label not in seen:
-                add(_polish(meas, m, final, reuse) if extra else _safe_fit(meas, m, reuse), i)
+            if m.label == final.model.label or (not extra and m.label in seen):
+                continue  # the final itself; a bare coil family is the same fit from any final
+            add(_polish(meas, m, final, reuse) if extra else _safe_fit(meas, m, reuse), i)
 
     def healthy():
         return [(f, lz, o) for f, lz, bad, o in seen.values() if not bad and math.isfinite(lz)]
@@ -191,7 +198,7 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
     keep, keep_lz, origin = min(near, key=lambda x: (x[0].model.ndim, -x[1]))
     tie = [f.model.label for f, _, _ in near if f is not keep]
     line = ""
-    if keep is not first:
+    if keep.model.label != first.model.label:
         _, first_lz, first_bad, _ = seen[first.model.label]
         why = f"log Z {first_lz:.1f}" if math.isfinite(first_lz) else "its evidence could not be computed"
         if first_bad:
