@@ -126,7 +126,8 @@ def main(argv=None) -> int:
                if r["final_log_z"] is not None and math.isfinite(r["final_log_z"])]
         spread = max(lzs) - min(lzs) if len(lzs) > 1 else 0.0
         if len(got) < 2:
-            same = "one start run (its diagnosis searched from UD, III and NL(5))"
+            same = "one start run" + (" (its diagnosis searched from UD, III and NL(5))"
+                                      if got[0].get("all_starts") else "")
         elif len(finals) == 1:
             same = "yes"
         elif len(lzs) < len(got):
@@ -139,6 +140,13 @@ def main(argv=None) -> int:
                         for w in got[0]["warnings"] if w.startswith("the searches from")), "-")
         rows.append(f"| {n} | " + " | ".join(cells) + f" | {same} | {spread:.1f} | "
                     f"{max(r['default_output_lines'] for r in got)} | {reached} |")
+    rows += ["", "Per run: CPU seconds of the diagnosis and its evidence, the 1-minute load average at "
+             "its end, "
+             "the defects of its final model (every parameter checked).", "",
+             "| recording | start | all starts | CPU s | load | defects |", "|---|---|---|---|---|---|"]
+    rows += [f"| {n} | {s} | {'yes' if r.get('all_starts') else 'no'} | {r['cpu_seconds']:.0f} | "
+             f"{r['load_average_1min']:.1f} | {'; '.join(r['defects']) or 'none'} |"
+             for (n, s), r in recs.items()]
     atomic_write_text(out / "table.md", "\n".join(rows) + "\n")
     print("\n".join(rows))
     return 0
