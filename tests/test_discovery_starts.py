@@ -79,8 +79,9 @@ def test_the_final_comparison_does_not_depend_on_the_order_the_starts_came_in():
 
 def test_a_model_two_finals_reach_is_kept_at_its_better_optimum_in_either_order():
     """Two starts' searches end on the same terms with different values (one a poorer optimum of the
-    same model): the comparison keeps the better one whichever final came first; it used to keep the
-    first final's fit, so the start given decided the values and what was polished from them."""
+    same model): the comparison keeps the better one (healthy, larger log Z, then lower chi2)
+    whichever final came first; it used to keep the first final's fit, so the start given decided
+    the values and what was polished from them."""
     meas = _data()
     m = parse_model_spec("UD+winding_capacitance")
     good = fit_admittance(meas, m)

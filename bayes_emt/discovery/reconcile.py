@@ -142,16 +142,16 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
     def add(fit, origin):
         if fit is None:
             return
-        had = seen.get(fit.model.label)
-        # a model reached by two routes (two finals with the same terms, polished from each): the
-        # better optimum (lower chi2) stands for it, whichever route came first, so the comparison
-        # does not depend on the order of the finals (the given start's first)
-        if had is not None and not fit.chi2 < had[0].chi2:
-            return
         lz = evidence(fit)
         # every parameter, the coil family's own too (an NL ring pressed to zero, Pg = 1e-16 on
         # grs_12SW-4HE, is a broken fit as much as a term's)
         bad = defects(fit, fit.model.names)
+        had = seen.get(fit.model.label)
+        # a model reached by two routes (two finals with the same terms, polished from each): the
+        # route the comparison itself prefers stands for it (healthy, then the larger log Z, then the
+        # lower chi2), whichever came first, so the answer does not depend on the order of the finals
+        if had is not None and not _better((fit, lz, bad), had[:3]):
+            return
         seen[fit.model.label] = (fit, lz, bad, origin)
         say(f"final comparison: {fit.model.label} log Z {lz:.1f}" + (f" ({'; '.join(bad)})" if bad else ""))
 
@@ -212,6 +212,22 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
                 f"{lab} (log Z {seen[lab][1]:.1f})" for lab in [keep.model.label, *tie])
             + f" apart (within {TIE_NATS:g} nats): the simplest, {keep.model.label}, is kept")
     return {"fit": keep, "log_z": keep_lz, "origin": origin, "compared": compared, "tie": tie, "line": line}
+
+
+#: two routes' log Z closer than this [nats] are the same evidence (the lower chi2 then decides)
+SAME_LOG_Z = 1e-6
+
+
+def _better(a, b) -> bool:
+    """Whether route ``a`` ``(fit, log Z, defects)`` of a model beats route ``b`` of the same model."""
+    ok_a, ok_b = not a[2] and math.isfinite(a[1]), not b[2] and math.isfinite(b[1])
+    if ok_a != ok_b:
+        return ok_a
+    if math.isfinite(a[1]) and math.isfinite(b[1]) and abs(a[1] - b[1]) > SAME_LOG_Z:
+        return a[1] > b[1]
+    if math.isfinite(a[1]) != math.isfinite(b[1]):
+        return math.isfinite(a[1])
+    return a[0].chi2 < b[0].chi2
 
 
 def _safe_fit(meas, model, reuse):
