@@ -77,6 +77,32 @@ def test_the_final_comparison_does_not_depend_on_the_order_the_starts_came_in():
     assert one["fit"].model.label == "UD+winding_capacitance"
 
 
+def test_a_model_two_finals_reach_is_kept_at_its_better_optimum_in_either_order():
+    """Two starts' searches end on the same terms with different values (one a poorer optimum of the
+    same model): the comparison keeps the better one (healthy, larger log Z, then lower chi2)
+    whichever final came first; it used to keep the first final's fit, so the start given decided
+    the values and what was polished from them."""
+    meas = _data()
+    m = parse_model_spec("UD+winding_capacitance")
+    good = fit_admittance(meas, m)
+    v = m.as_dict(good.theta)
+    poor = fit_admittance(meas, m, initial={**v, "zeta": 1.5 * v["zeta"], "R0": 1.05 * v["R0"]},
+                          polish=False, max_nfev=3)
+    assert poor.chi2 > 1.01 * good.chi2  # a distinct, poorer optimum of the same model
+
+    def ev(f):
+        return fit_log_evidence(meas, f).log_z
+
+    for finals in ([good, poor], [poor, good]):
+        out = final_comparison(meas, finals, ev, families=("UD",))
+        assert out["fit"].model.label == "UD+winding_capacitance"
+        assert out["fit"].chi2 == pytest.approx(good.chi2, rel=1e-9)
+        np.testing.assert_allclose(out["fit"].theta, good.theta, rtol=1e-9)
+        # one label, one entry: the poorer route does not appear beside it
+        assert [c["model"] for c in out["compared"]].count("UD+winding_capacitance") == 1
+        assert out["line"] == "" or "is kept over" not in out["line"]
+
+
 def test_findings_follow_the_kept_model():
     from types import SimpleNamespace as NS
 

@@ -140,12 +140,18 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
     seen: dict[str, tuple] = {}
 
     def add(fit, origin):
-        if fit is None or fit.model.label in seen:
+        if fit is None:
             return
         lz = evidence(fit)
         # every parameter, the coil family's own too (an NL ring pressed to zero, Pg = 1e-16 on
         # grs_12SW-4HE, is a broken fit as much as a term's)
         bad = defects(fit, fit.model.names)
+        had = seen.get(fit.model.label)
+        # a model reached by two routes (two finals with the same terms, polished from each): the
+        # route the comparison itself prefers stands for it (healthy, then the larger log Z, then the
+        # lower chi2), whichever came first, so the answer does not depend on the order of the finals
+        if had is not None and not _better((fit, lz, bad), had[:3]):
+            return
         seen[fit.model.label] = (fit, lz, bad, origin)
         say(f"final comparison: {fit.model.label} log Z {lz:.1f}" + (f" ({'; '.join(bad)})" if bad else ""))
 
@@ -158,8 +164,9 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
                 m = parse_model_spec(fam + extra)
             except ValueError:
                 continue
-            if m.label not in seen:
-                add(_polish(meas, m, final, reuse) if extra else _safe_fit(meas, m, reuse), i)
+            if m.label == final.model.label or (not extra and m.label in seen):
+                continue  # the final itself; a bare coil family is the same fit from any final
+            add(_polish(meas, m, final, reuse) if extra else _safe_fit(meas, m, reuse), i)
 
     def healthy():
         return [(f, lz, o) for f, lz, bad, o in seen.values() if not bad and math.isfinite(lz)]
@@ -191,7 +198,7 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
     keep, keep_lz, origin = min(near, key=lambda x: (x[0].model.ndim, -x[1]))
     tie = [f.model.label for f, _, _ in near if f is not keep]
     line = ""
-    if keep is not first:
+    if keep.model.label != first.model.label:
         _, first_lz, first_bad, _ = seen[first.model.label]
         why = f"log Z {first_lz:.1f}" if math.isfinite(first_lz) else "its evidence could not be computed"
         if first_bad:
@@ -205,6 +212,22 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
                 f"{lab} (log Z {seen[lab][1]:.1f})" for lab in [keep.model.label, *tie])
             + f" apart (within {TIE_NATS:g} nats): the simplest, {keep.model.label}, is kept")
     return {"fit": keep, "log_z": keep_lz, "origin": origin, "compared": compared, "tie": tie, "line": line}
+
+
+#: two routes' log Z closer than this [nats] are the same evidence (the lower chi2 then decides)
+SAME_LOG_Z = 1e-6
+
+
+def _better(a, b) -> bool:
+    """Whether route ``a`` ``(fit, log Z, defects)`` of a model beats route ``b`` of the same model."""
+    ok_a, ok_b = not a[2] and math.isfinite(a[1]), not b[2] and math.isfinite(b[1])
+    if ok_a != ok_b:
+        return ok_a
+    if math.isfinite(a[1]) and math.isfinite(b[1]) and abs(a[1] - b[1]) > SAME_LOG_Z:
+        return a[1] > b[1]
+    if math.isfinite(a[1]) != math.isfinite(b[1]):
+        return math.isfinite(a[1])
+    return a[0].chi2 < b[0].chi2
 
 
 def _safe_fit(meas, model, reuse):
