@@ -12,13 +12,17 @@ same per draw for 20 frequencies as for one, so shared grids beat per-draw loops
    frequency (where the lightly damped mode of a draw close to instability peaks).
 2. **Fine.** Each candidate is re-sampled at ``Δ/8`` on bands shared by the draws whose candidates
    lie close together; the maximum within ``±4`` fine points is found (a maximum on the window edge
-   moves the window and repeats), and a quartic through the five points around it (in ``log ω``)
-   gives the peak: height error of order ``(Δ/w)^5`` for a peak of log-width ``w``, ~1e-9 for the
-   shunted peaks here. A peak narrower than six fine points is re-sampled eight times finer.
+   moves the window and repeats), and a sextic through the seven points around it (in ``log ω``)
+   gives the peak: height error of order ``(Δ/w)^7`` for a peak of log-width ``w``, and its frequency
+   within ``w (Δ/w)^6``. The frequency matters as much as the height: the gradients below are taken
+   there, and a peak's gradient turns with frequency (the parallel_driver catalogue term: a shift of
+   1e-8 in ``log ω`` turns it by 4e-7 rad, where the quartic used before placed the peak 3e-8 off and
+   the equal-peak check, ``|g_lo × g_hi| < 1e-6``, failed on a converged design). A peak narrower
+   than six fine points is re-sampled eight times finer.
 3. **Gradients** (optional) by the envelope theorem: at a peak, ``d ln h/dp = ∂ ln|G|/∂p`` at fixed
    frequency; with ``G`` holomorphic in ``Zs``, ``∂ ln|G|/∂Zs = G'/G`` comes from one central
    difference in ``Zs`` (``±δ``, error ~(δ/|Ze + Zs|)²), and ``∂Zs/∂Rs = 1``,
-   ``∂Zs/∂ log Cs = −1/(Cs s)``. They are interpolated to the peak with the same quartic.
+   ``∂Zs/∂ log Cs = −1/(Cs s)``. They are interpolated to the peak with the same sextic.
 
 **Below the band.** Where the band's low edge ``ω0/SPAN`` is the largest value (``wide``), the
 nominal design (:meth:`Plant.local_peaks <bayes_emt.shunt.Plant.local_peaks>`) searches a 200×
@@ -34,6 +38,7 @@ A draw whose largest value lies on the edge of its coarse window is handed to th
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,8 +54,9 @@ _HALF = 4  # half-width of the search window, in grid steps
 _MAX_BAND = 240  # grid steps per shared band before it is split
 _UNION = 400  # bands evaluated in one model call for every draw while their union is this short
 _SHARP = 40  # a peak narrower than this many fine steps (log-width) is resampled 8 times finer
-# quartic through t = -2..2: coefficients = _VINV @ values
-_VINV = np.linalg.inv(np.vander(np.arange(-2.0, 3.0), 5, increasing=True))
+# sextic through t = -3..3: coefficients = _VINV @ values
+_STENCIL = 3
+_VINV = np.linalg.inv(np.vander(np.arange(-3.0, 4.0), 7, increasing=True))
 #: log-frequency step of the nominal design's grid (:class:`Plant`: 2600 points over ω0/40 .. 40 ω0)
 _PLANT_STEP = float(np.log(SPAN * SPAN) / 2599)
 _DIAG_CHUNK = 64  # draws per model call when each draw has its own frequency
@@ -210,19 +216,27 @@ def _log_receptance(bp: BatchPlant, rows, omega, Rs, Cs, delta=None):
     return np.log(np.abs(G)), grad
 
 
-def _quartic_max(y5):
-    """Maximum of the quartic through ``y5 (n, 5)`` at ``t = -2..2``: ``(t*, value, p''(t*))``."""
-    a = y5 @ _VINV.T
-    den = y5[:, 1] - 2 * y5[:, 2] + y5[:, 3]
-    t = np.where(den < 0, 0.5 * (y5[:, 1] - y5[:, 3]) / np.where(den < 0, den, -1.0), 0.0)
+def _poly(a, t, d=0):
+    """The ``d``-th derivative at ``t`` of the polynomials with coefficients ``a (n, k)`` (increasing)."""
+    k = a.shape[1]
+    out = np.zeros_like(t)
+    for j in range(k - 1, d - 1, -1):
+        c = math.perm(j, d)
+        out = out * t + c * a[:, j]
+    return out
+
+
+def _sextic_max(y7):
+    """Maximum of the sextic through ``y7 (n, 7)`` at ``t = -3..3``: ``(t*, value, p''(t*))``."""
+    a = y7 @ _VINV.T
+    c = _STENCIL
+    den = y7[:, c - 1] - 2 * y7[:, c] + y7[:, c + 1]
+    t = np.where(den < 0, 0.5 * (y7[:, c - 1] - y7[:, c + 1]) / np.where(den < 0, den, -1.0), 0.0)
     t = np.clip(t, -1.0, 1.0)
-    for _ in range(6):
-        d1 = a[:, 1] + t * (2 * a[:, 2] + t * (3 * a[:, 3] + 4 * t * a[:, 4]))
-        d2 = 2 * a[:, 2] + t * (6 * a[:, 3] + 12 * t * a[:, 4])
+    for _ in range(8):
+        d1, d2 = _poly(a, t, 1), _poly(a, t, 2)
         t = np.clip(t - np.where(d2 < 0, d1 / np.where(d2 < 0, d2, -1.0), 0.0), -1.5, 1.5)
-    val = a[:, 0] + t * (a[:, 1] + t * (a[:, 2] + t * (a[:, 3] + t * a[:, 4])))
-    d2 = 2 * a[:, 2] + t * (6 * a[:, 3] + 12 * t * a[:, 4])
-    return t, val, d2
+    return t, _poly(a, t), _poly(a, t, 2)
 
 
 def _bands(centres, step):
@@ -287,16 +301,16 @@ def _refine(bp, rows, centres, Rs, Cs, step, delta, follow=None):
             again.extend(jobs[edge & follow[jobs]])
             c[jobs[edge]] = x[jm[edge]]
             sel = ~edge
-            five = jm[sel, None] + np.arange(-2, 3)
-            t, val, d2 = _quartic_max(np.take_along_axis(f[sel], five, 1))
+            seven = jm[sel, None] + np.arange(-_STENCIL, _STENCIL + 1)
+            t, val, d2 = _sextic_max(np.take_along_axis(f[sel], seven, 1))
             j = jobs[sel]
             x_out[j], v_out[j] = x[jm[sel]] + t * step, val
             ok[j] = d2 < 0
             sharp = (d2 < 0) & (-d2 > 1.0 / _SHARP**2)  # narrower than _SHARP steps: resample finer
             if g is not None:
-                w = np.vander(t, 5, increasing=True) @ _VINV
+                w = np.vander(t, 2 * _STENCIL + 1, increasing=True) @ _VINV
                 for q in range(2):
-                    g_out[j, q] = np.sum(w * np.take_along_axis(g[sel][..., q], five, 1), axis=1)
+                    g_out[j, q] = np.sum(w * np.take_along_axis(g[sel][..., q], seven, 1), axis=1)
             if sharp.any() and step > FINE / 100:
                 jj = j[sharp]
                 xs, vs, gs, oks = _refine(bp, rows[jj], x_out[jj], Rs, Cs, step / 8, delta, follow[jj])
@@ -307,16 +321,20 @@ def _refine(bp, rows, centres, Rs, Cs, step, delta, follow=None):
     return x_out, v_out, g_out, ok
 
 
-def _coarse(bp, rows, Rs, Cs, cross: Crossings, full: bool = False):
+def _coarse(bp, rows, Rs, Cs, cross: Crossings, full: bool = False, from_edge=None):
     """Candidate centres ``(m, 3)`` in ``log ω`` and the rows whose maximum left the window; the
     window spans the crossings (module docstring), or with ``full`` the whole band
-    ``ω0/SPAN .. SPAN ω0`` (``cross`` then gives the binding crossing only)."""
+    ``ω0/SPAN .. SPAN ω0`` (``cross`` then gives the binding crossing only). ``from_edge`` (m,): rows
+    whose window starts at the band's low edge ``ω0/SPAN`` instead (where the edge is a peak: the
+    response between it and the crossings is flat and may hold a peak of its own)."""
     w0 = bp.omega0[rows]
     if full:
         lo, hi = np.log(w0 / SPAN), np.log(w0 * SPAN)
     else:
         lo = np.where(np.isfinite(cross.omega_min), cross.omega_min * 0.8, w0 / 2.5)
         hi = np.where(np.isfinite(cross.omega_max), cross.omega_max * 1.25, w0 * 2.5)
+        if from_edge is not None:
+            lo = np.where(from_edge, w0 / SPAN, lo)
         lo, hi = np.log(np.maximum(lo, w0 / SPAN)), np.log(np.minimum(hi, w0 * SPAN))
     x = np.arange(lo.min() - COARSE, hi.max() + 2 * COARSE, COARSE)
     f, _ = _log_receptance(bp, rows, np.exp(x), Rs, Cs)
@@ -380,9 +398,16 @@ def rc_peaks_batch(bp: BatchPlant, Rs, Cs, idx=None, *, gradients: bool = False,
     local = np.arange(m)
     sub = bp if idx is None else _View(bp.model, bp.thetas[rows], bp.omega0[rows], bp.R0[rows])
     escaped = np.zeros(m, bool)
+    delta = 1e-6 * float(np.median(sub.R0)) if gradients else None
+    # the low band edge where |m·G| falls inward (a peak of the nominal design's grid): its own slot
+    # below, and where it is one the coarse window reaches down to it: the nominal design's grid sees
+    # every local maximum between the edge and the crossings, and an edge-balanced optimum can have
+    # one there (ScanSpeak 18W diagnosed posterior: a third equal peak near 99 rad/s, below the
+    # window's 0.8 ω_lo, for 30 % of the draws; the batch never saw it and its Newton cycled)
+    fe, is_peak, ge = band_edge(sub, local, Rs, Cs, delta)
     if centres is None:
         cross = crossings if crossings is not None else bp.crossings(Cs, idx, Rs=Rs)
-        cent, escaped, _ = _coarse(sub, local, Rs, Cs, cross)
+        cent, escaped, _ = _coarse(sub, local, Rs, Cs, cross, from_edge=is_peak)
         if escaped.any():
             # the largest value left the window around the crossings (a shunt that flattens the
             # resonance: the response falls from the band's low edge): look over the whole band,
@@ -397,7 +422,6 @@ def rc_peaks_batch(bp: BatchPlant, Rs, Cs, idx=None, *, gradients: bool = False,
         # a known peak at the band edge is the edge itself (refining would walk out of the band)
         cent = np.where(np.abs(cent - np.log(sub.omega0 / SPAN)[:, None]) < 1e-9, np.nan, cent)
     K = cent.shape[1]
-    delta = 1e-6 * float(np.median(sub.R0)) if gradients else None
     value, omega = np.full((m, K), np.nan), np.full((m, K), np.nan)
     grad = np.full((m, K, 2), np.nan) if gradients else None
     # slots 0, 1: the coarse maxima, followed wherever they lead; slot 2 (the binding crossing):
@@ -411,8 +435,7 @@ def rc_peaks_batch(bp: BatchPlant, Rs, Cs, idx=None, *, gradients: bool = False,
     failed = np.zeros(m, bool)
     failed[jr[~good & (jk < 2)]] = True
     failed |= escaped
-    # last slot: the low band edge where |m·G| falls inward (a peak of the nominal design's grid)
-    fe, is_peak, ge = band_edge(sub, local, Rs, Cs, delta)
+    # last slot: the low band edge where |m·G| falls inward (computed above)
     failed |= ~(np.isfinite(value).any(axis=1) | is_peak)
     value = np.concatenate([value, np.where(is_peak, np.exp(fe), np.nan)[:, None]], axis=1)
     omega = np.concatenate([omega, np.where(is_peak, sub.omega0 / SPAN, np.nan)[:, None]], axis=1)
