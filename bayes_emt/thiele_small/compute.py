@@ -331,12 +331,12 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                                      "treat their intervals as lower bounds"})
         if mode == "point":
             x = mfit.theta[None, :]
+        elif mode == "component" and inp.noise != "white":  # no joint component but the white fit's
+            x = mfit.theta[None, :]
         elif mode == "component":  # a mixture component: the joint fit's Gaussian approximation
             x = mfit.theta[None, :]
             cov = mfit.cov_z
             why = ("the joint fit has no covariance" if cov is None or not np.all(np.isfinite(cov))
-                   else "its joint component would be the white fit's Gaussian approximation"
-                   if inp.noise != "white"
                    else "the joint fit's covariance is not positive semi-definite"
                    if np.linalg.eigvalsh(0.5 * (cov + cov.T))[0] < -1e-9 * np.abs(np.diag(cov)).max()
                    else "")
