@@ -117,8 +117,12 @@ def main(argv=None) -> int:
     text = summarise(recs)
     print(text)
     if not a.no_save:
-        name = ("ts_wrong_model.txt" if a.fit == FIT and a.no_spread else f"ts_wrong_model_{a.fit}.txt"
-                if a.fit == "auto" or a.no_spread else f"ts_wrong_model_{a.fit}_spread.txt")
+        if a.fit == FIT and a.no_spread:  # the study as first run: UD alone
+            name = "ts_wrong_model.txt"
+        elif a.fit == "auto" or a.no_spread:
+            name = f"ts_wrong_model_{a.fit}.txt"
+        else:  # a named model with its spread
+            name = f"ts_wrong_model_{a.fit}_spread.txt"
         (RESULTS / name).write_text(text + "\n")
     return 0
 

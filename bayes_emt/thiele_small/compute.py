@@ -329,9 +329,8 @@ def _estimate(model: Model, method: str, inp: _Inputs, mode: str, warns: list):
                                      f"their scatter (F = {mfit.consistency['F']:.3g}, p = "
                                      f"{mfit.consistency['p_value']:.2g}): Mms and Bl carry that mismatch; "
                                      "treat their intervals as lower bounds"})
-        if mode == "point":
-            x = mfit.theta[None, :]
-        elif mode == "component" and inp.noise != "white":  # no joint component but the white fit's
+        if mode == "point" or (mode == "component" and inp.noise != "white"):
+            # (a joint component would be the white fit's Gaussian: the point values only)
             x = mfit.theta[None, :]
         elif mode == "component":  # a mixture component: the joint fit's Gaussian approximation
             x = mfit.theta[None, :]
@@ -405,6 +404,11 @@ def _volume(bound, bbound, theta, theta_c, vb, inp, warns, model):
     return ts
 
 
+def _with_auto_terms(label: str) -> list[Model]:
+    """The coil model ``label`` with each of :data:`AUTO_TERMS` (none when it holds a term already)."""
+    return [] if "+" in label else [parse_model_spec(f"{label}+{t}") for t in AUTO_TERMS]
+
+
 def _fit_candidates(models, method, inp, cand_mode, warns, comps, rank: bool = True) -> list[str]:
     """Fit (and, for the mixture, approximate) each of ``models`` into ``comps[label] = (draws,
     point values, record)``; a candidate that fails is reported in ``warns``. Returns the labels of
@@ -454,9 +458,7 @@ def evidence_supported_model(meas: Measurement, *, noise: str = "white",
     ranked = _fit_candidates(pool, "free_air", inp, "point", warns, comps)
     if not ranked:
         raise DataFormatError(f"{meas.source}: none of the candidate models could be fitted")
-    if "+" not in ranked[0]:
-        _fit_candidates([parse_model_spec(f"{ranked[0]}+{t}") for t in AUTO_TERMS], "free_air", inp, "point",
-                        warns, comps)
+    _fit_candidates(_with_auto_terms(ranked[0]), "free_air", inp, "point", warns, comps)
     best = max(comps, key=lambda m: rank_key(comps[m][2]))
     probs = mixture_weights({m: c[2]["log_z"] for m, c in comps.items() if not c[2]["undetermined"]})
     return parse_model_spec(best), probs
@@ -586,8 +588,7 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
             names = ", ".join(m.label for m in pool)
             raise DataFormatError(f"{meas.source}: none of the candidate models {names} could be fitted")
         best = ranked[0]
-        terms = [parse_model_spec(f"{best}+{t}") for t in AUTO_TERMS if "+" not in best]
-        _fit_candidates(terms, method, inp, cand_mode, warns, comps)
+        _fit_candidates(_with_auto_terms(best), method, inp, cand_mode, warns, comps)
         main = parse_model_spec(max(comps, key=lambda m: rank_key(comps[m][2])))
         candidates = [parse_model_spec(m) for m in comps if m != main.label]
     else:
@@ -615,8 +616,8 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
         if not pending and extend:  # as the default does: the physics terms on the best coil model too
             extend = False
             best = max(records, key=rank_key)["model"]
-            if "+" not in best and best != main.label:
-                pending = [parse_model_spec(f"{best}+{t}") for t in AUTO_TERMS]
+            if best != main.label:  # the main model's own are among the candidates already
+                pending = _with_auto_terms(best)
     records = select_spread_models(records)
     included = [points[r["model"]] for r in records if r["included"]]
     # the mixture: the main model's posterior and the determined candidates' components, by evidence
