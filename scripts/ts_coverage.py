@@ -80,6 +80,9 @@ def summary(records: list[dict]) -> str:
         lines += [f"  {n:20s} coverage {100 * c:5.1f} %{'' if c >= 0.8 else '  < 80 %'}"
                   f"   model's own {100 * covm[n]:5.1f} %, width ratio {wr[n]:.2f} (median)"
                   for n, c in cov.items()]
+        lines.append(f"  {'all parameters':20s} coverage {100 * np.mean(list(cov.values())):5.1f} %   "
+                     f"model's own {100 * np.nanmean(list(covm.values())):5.1f} %, largest median width "
+                     f"ratio {np.nanmax(list(wr.values())):.2f}")
     return "\n".join(lines)
 
 

@@ -12,7 +12,13 @@ from conftest import REALDATA
 
 from bayes_emt.estimation.plateau import PLATEAU_FS_RATIO, plateau_reading
 from bayes_emt.io.resolution import low_band_rows
-from bayes_emt.thiele_small.definitional import Z90, add_definitional, between_method_sd, widen
+from bayes_emt.thiele_small.definitional import (
+    Z90,
+    add_definitional,
+    between_method_sd,
+    curve_residual_structure,
+    widen,
+)
 from bayes_emt.thiele_small.simulate import simulate_driver
 
 DATS = ["grs_12SW-4HE_dats_0h.txt", "scanspeak_18W-4424G00_dats_0h.txt",
@@ -134,6 +140,52 @@ def test_plateau_reading_of_the_dats_files_is_the_bench_s_own_re(name):
     assert r is not None and len(r.f_hz) >= 3
     bench = meas.meta["bench_fit"]["values"]["Re"]
     assert abs(r.meter.value - bench) / bench < 0.02
+
+
+def _curve(misfit: float, seed: int = 0, n: int = 300):
+    """A curve record: a resonant |Z| with 0.3 % complex noise on the data, and a fit that misses a
+    smooth bump of ``misfit`` (relative), one e-fold wide in frequency."""
+    rng = np.random.default_rng(seed)
+    f = np.geomspace(10, 2000, n)
+    x = f / 40.0
+    zfit = 6.0 + 20.0 / (1 + 4j * (x - 1 / x))
+    bump = misfit * np.exp(-0.5 * (np.log(f / 200.0) / 1.0) ** 2)
+    zd = zfit * (1 + bump) * (1 + 0.003 * (rng.standard_normal(n) + 1j * rng.standard_normal(n)))
+    return {"f_hz": f.tolist(), "data_abs_z_ohm": np.abs(zd).tolist(),
+            "data_phase_deg": np.degrees(np.angle(zd)).tolist(), "fit_abs_z_ohm": np.abs(zfit).tolist(),
+            "fit_phase_deg": np.degrees(np.angle(zfit)).tolist()}
+
+
+def test_curve_residual_structure_is_the_fit_s_test_on_the_curve_record():
+    """Noise alone is not structured (every seed); a smooth 5 % misfit, 17 times the noise, is."""
+    for seed in range(5):
+        rs = curve_residual_structure(_curve(0.0, seed))
+        assert rs is not None and not rs["structured"], rs
+        assert curve_residual_structure(_curve(0.05, seed))["structured"]
+    assert curve_residual_structure(None) is None
+    assert curve_residual_structure({"f_hz": [1.0, 2.0]}) is None
+
+
+def test_default_interval_counts_no_convention_bias_when_the_model_describes_the_curve():
+    """On a simulated driver fitted with the model that made it, the residual is noise: the default
+    (total) interval is the misfit one, Small's bias on a lossy coil's curve not counted (before, fs
+    and Qms widened 8-19 times the model's interval), and the note says why."""
+    from bayes_emt.thiele_small import thiele_small
+
+    sim = simulate_driver("I+semi_inductance", deltas=(), seed=2, n_points=300)
+    kw = {"fast": True, "models_for_spread": [], "seed": 0}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = thiele_small(sim.free, "I+semi_inductance", **kw)
+        m = thiele_small(sim.free, "I+semi_inductance", intervals="misfit", **kw)
+    assert r.inputs["intervals"] == "total" and r.inputs["intervals_residual"]["structured"] is False
+    for name, p in r.parameters.items():
+        assert p["ci90"] == pytest.approx(m.parameters[name]["ci90"], rel=1e-12), name
+    for name in ("fs", "Qms"):
+        lo, hi = r.parameters[name].get("ci90_model") or r.parameters[name]["ci90"]
+        assert r.parameters[name]["ci90"][1] - r.parameters[name]["ci90"][0] <= 1.5 * (hi - lo), name
+    notes = [w["message"] for w in r.warnings if w["code"] == "definitional_uncertainty"]
+    assert all("describes the curve to its noise" in msg for msg in notes)
 
 
 def test_ts_default_interval_spans_the_model_and_the_plateau_on_a_dats_tweeter():

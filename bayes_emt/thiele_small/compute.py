@@ -75,7 +75,13 @@ from ..estimation.plateau import plateau_note
 from ..measurement import Measurement
 from ..models import Model, parse_model_spec
 from .curve import fit_curve
-from .definitional import DEFINITIONAL_METHOD, add_definitional, half_width_sd, small_on_curve
+from .definitional import (
+    DEFINITIONAL_METHOD,
+    add_definitional,
+    curve_residual_structure,
+    half_width_sd,
+    small_on_curve,
+)
 from .from_results import LAPLACE_DRAWS, from_fit, from_posterior, laplace_theta
 from .mixture import MIXTURE_METHOD, mixture_weights, weighted_quantiles
 from .plausibility import check_inputs, check_result, setup_warnings
@@ -503,9 +509,11 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
         :mod:`bayes_emt.inference.discrepancy`; slower, and on the truth corpus no better covered).
     intervals : ``"total"`` (default): ``ci90`` includes the definitional uncertainty, the spread
         between the model and Small's model-free method (and, for Re, the plateau reading and the
-        fit's R0) (:mod:`.definitional`); ``"misfit"``: only the part of that spread the model's own
-        curve does not explain; ``"model"``: the model mixture's posterior alone, the intervals if
-        the model were exact (``ci90_model`` of the others).
+        fit's R0) (:mod:`.definitional`), Small's own bias on the model's curve counted only when the
+        main model's free-air residual is structured (otherwise as ``"misfit"``); ``"misfit"``: only
+        the part of that spread the model's own curve does not explain; ``"model"``: the model
+        mixture's posterior alone, the intervals if the model were exact (``ci90_model`` of the
+        others).
     plateau : read Re off the recording's low-frequency plateau when the reader kept one (a bench
         that sweeps from ~1 Hz; :mod:`.plateau`) and no ``re`` is given: Small's model-free column
         uses it, and it is the second method for Re's definitional uncertainty (the fit's R0 stays
@@ -741,9 +749,21 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
         mfp = (mf or {}).get("parameters") or {}
         shift = {n: (float(mfp[n]["value"]), half_width_sd(mfp[n].get("ci90")))
                  for n in ("Mms", "Cms", "Bl") if n in mfp and mfp[n].get("value") is not None}
-        warns += add_definitional(params, pooled, small, plat, int(seed), corrected=intervals == "misfit",
-                                  mass_shift=shift)
+        # Small's own bias on the model's curve is a spread of the measurand's definition only when
+        # the model does not describe the driver (definitional.py): the fit's residual test decides
+        structure = curve_residual_structure(inp.curve) if intervals == "total" else None
+        corrected = intervals == "misfit" or (structure is not None and not structure["structured"])
+        why = "" if structure is None else (
+            f"the main model's residual is structured (runs test z = {structure['runs_z']:.1f}, up to "
+            f"{structure['rho_max']:.3g} times the noise): the model does not define the quantity alone"
+            if structure["structured"] else
+            f"the main model describes the curve to its noise (runs test z = {structure['runs_z']:.1f}, at "
+            f"most {structure['rho_max']:.3g} times the noise): Small's own bias on that curve is that "
+            "method's error, not a spread of the quantity")
+        warns += add_definitional(params, pooled, small, plat, int(seed), corrected=corrected,
+                                  mass_shift=shift, why=why)
         inputs["intervals_method"] = DEFINITIONAL_METHOD
+        inputs["intervals_residual"] = structure
     return ThieleSmall(model=main.label, method=method, parameters=params, inputs=inputs,
                        warnings=tuple(_dedupe(warns)), model_free=mf, curve=inp.curve,
                        bench_fit=bench_comparison(params, meas.meta.get("bench_fit")))

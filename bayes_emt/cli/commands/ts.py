@@ -79,7 +79,8 @@ def register(sub) -> None:
     p.add_argument("--intervals", choices=["total", "misfit", "model"], default="total",
                    help="total (default): the model's posterior plus the definitional spread between "
                         "methods (the model vs Small's model-free method; Re: the plateau reading vs the "
-                        "fit), what another bench may report; misfit: only the part of that spread the "
+                        "fit), what another bench may report (as misfit when the model describes the "
+                        "curve to its noise); misfit: only the part of that spread the "
                         "model's own curve does not explain; model: the model's posterior alone, the "
                         "intervals if the model were exact")
     p.add_argument("--no-plateau", action="store_true",
