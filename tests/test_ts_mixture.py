@@ -119,16 +119,19 @@ def test_a_requested_models_spread_weighs_it_against_the_physics_the_default_tri
 
 
 @pytest.mark.slow
-def test_a_requested_wrong_model_with_an_added_mass_reports_the_mixture_that_holds_the_truth():
+@pytest.mark.parametrize("seed", [0, 17])
+def test_a_requested_wrong_model_with_an_added_mass_reports_the_mixture_that_holds_the_truth(seed):
     """Data from NL(3) + LOG creep with a 10 g added mass (0.5 % noise, 300 points), ``ts`` asked for
     UD: the joint candidates get Laplace components, the evidence puts the weight on NL(3) with
-    creep (tried on the best coil model as the default does), the reported values and intervals are
-    the mixture's and hold the truth; UD's own values stay under ``model_only`` and a line says so."""
+    creep (tried on the best coil model as the default does, and on NL(3) itself when its own joint
+    evidence fails, as on seed 17, where UD+creep took the weight and Re was 4.9 % off), the
+    reported values and intervals are the mixture's and hold the truth; UD's own values stay under
+    ``model_only`` and a line says so."""
     from bayes_emt.thiele_small.simulate import simulate_driver as sim_driver
 
     coil = {k: PAPER_TABLES["NL"][k] for k in ("Pg", "P1", "P2", "P3", "R1", "R2", "R3")}
-    sim = sim_driver("NL(3)+suspension_creep", driver=coil, deltas=(0.010,), seed=0, n_points=300)
-    r = thiele_small(sim.free, "UD", loaded=list(sim.loaded), sd=sim.sd, seed=0)
+    sim = sim_driver("NL(3)+suspension_creep", driver=coil, deltas=(0.010,), seed=seed, n_points=300)
+    r = thiele_small(sim.free, "UD", loaded=list(sim.loaded), sd=sim.sd, seed=seed)
     w = r.inputs["mixture"]["weights"]
     assert max(w, key=w.get) == "NL(3)+suspension_creep" and w["NL(3)+suspension_creep"] > 0.9
     assert any(x["code"] == "better_model" for x in r.warnings)

@@ -82,6 +82,25 @@ def test_spread_threshold_is_one_percent_and_failed_evidence_is_kept():
     assert out[0]["probability"] == 1.0 and out[1]["probability"] is None and out[1]["included"]
 
 
+def test_terms_go_on_the_best_coil_and_on_a_better_fitting_one_whose_evidence_failed():
+    """A failed evidence is no evidence against a model: the physics terms are tried on the best coil
+    model by evidence and on every determined coil model that fits better but has no evidence; not
+    on an undetermined one, a worse-fitting one, or a model that holds a term already."""
+    from bayes_emt.thiele_small.compute import AUTO_TERMS, _terms_on_best_coils
+
+    nan = float("nan")
+    recs = [{"model": "UD", "rms": 0.019, "undetermined": [], "log_z": 6320.0},
+            {"model": "UD+suspension_creep", "rms": 0.017, "undetermined": [], "log_z": 6377.0},
+            {"model": "NL(3)", "rms": 0.014, "undetermined": [], "log_z": nan},
+            {"model": "NL(2)", "rms": 0.013, "undetermined": ["Pg"], "log_z": nan},
+            {"model": "II", "rms": 0.07, "undetermined": [], "log_z": nan}]
+    got = [m.label for m in _terms_on_best_coils(recs)]
+    assert got == [f"{b}+{t}" for b in ("UD", "NL(3)") for t in AUTO_TERMS]
+    assert _terms_on_best_coils(recs[1:2]) == []
+    recs[2]["log_z"] = 6000.0  # NL(3) ranked by its evidence now: the best by evidence only
+    assert [m.label for m in _terms_on_best_coils(recs)] == [f"UD+{t}" for t in AUTO_TERMS]
+
+
 def test_simulated_driver_spread_record_is_complete_strict_json():
     """A UD driver (0.5 % noise): the main model is adequate, determined and included; every
     candidate carries its rms, log Z, probability and T/S values; the JSON names the method."""
