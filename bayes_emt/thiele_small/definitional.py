@@ -77,6 +77,7 @@ def curve_residual_structure(curve: dict | None) -> dict | None:
     "runs_z", "rho_max"}``, or ``None`` when the record has no fitted curve or too few points."""
     if not curve or "fit_abs_z_ohm" not in curve or len(curve.get("f_hz", ())) < 20:
         return None
+
     def z(mag, ph):
         return np.asarray(curve[mag], float) * np.exp(1j * np.deg2rad(np.asarray(curve[ph], float)))
 
