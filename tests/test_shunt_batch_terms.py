@@ -195,3 +195,39 @@ def test_hull_weights_are_the_three_peak_optimality_condition():
     assert np.allclose(np.einsum("mk,mkj->mj", lam[:2], g[:2]), 0.0, atol=1e-12)
     assert (lam[0] > 0).all() and (lam[1] < 0).any()
     assert np.isnan(lam[2]).all()
+
+
+#: the Dayton LS10-44 free-air (run 2) NL(3)+second_resonance+winding_capacitance posterior median
+#: (../shared/realdata, sampled by ``sample --seed 0``): the optimum lies at the corner of both bounds,
+#: Cs at its upper bound and Rs on the stability boundary (threshold 0 with a winding capacitance)
+LS10_44_FREE_CP = {"zeta": 0.06830608472, "omega0": 261.9292376, "phi": 56.21900663, "R0": 7.337779238,
+                   "Pg": 9.015331293e-09, "P1": 7.010145467e-08, "P2": 3.263422934e-08,
+                   "P3": 1.186095239e-08, "R1": 7.094040517e-06, "R2": 5.713872248e-05,
+                   "R3": 0.000190755728, "zeta2": 0.02942126621, "omega2": 148.4920819,
+                   "phi2": 5.211884427, "Cp": 2.313856534e-08}
+
+
+def _corner_case(n):
+    model = build_model("NL(3)+second_resonance+winding_capacitance")
+    theta = model.vector(LS10_44_FREE_CP)
+    return model, _draws(model, theta, n)
+
+
+def test_corner_of_both_bounds_settles_in_the_batch():
+    """Half the draws of that posterior fell back to the one-at-a-time design (its whole robust call
+    took over 11 CPU minutes): the equal-peak Rs on the Cs bound is negative, so unstable."""
+    model, th = _corner_case(20)
+    nom = design_rc_shunt(model, np.median(th, axis=0))
+    assert nom.optimum == "at the stability boundary"
+    bp = BatchPlant(model, th)
+    opt = design_draws(bp, (nom.Rs, nom.Cs), R0_start=nom.R0)
+    assert not opt.fallback.any()
+    corner = np.abs(opt.Rs) <= 1e-6 * bp.R0
+    assert corner.any()  # the case exercises the corner
+    assert (opt.margin > 0).all()
+
+
+@pytest.mark.slow
+def test_corner_of_both_bounds_batched_equals_one_at_a_time():
+    model, th = _corner_case(12)
+    _compare(model, th)

@@ -323,6 +323,34 @@ def _on_boundary(bp, idx, u0, max_iter=30):
     return rs, u, fine
 
 
+def _at_corner(bp, idx, u):
+    """Draws ``idx`` whose optimum is the corner of both bounds: ``ln Cs = u`` (its upper bound) and
+    Rs on the stability boundary. Returns ``(Rs, ok)``; ``ok``: one peak is the highest (the next
+    more than 1e-9 lower in ln h) and its gradient ``g`` meets the Karush–Kuhn–Tucker conditions of
+    ``Rs ≥ threshold(ln Cs)``, ``ln Cs ≤ u``: ``g = (μ1, −μ1·d threshold/d ln Cs − μ2)`` with both
+    multipliers ``≥ 0`` (lowering Rs or raising Cs, the only ways down, leave the admissible set).
+    Measured on the LS10-44 free-air NL(3)+second_resonance+winding_capacitance posterior (threshold
+    0 at every Cs): 50 of 100 draws had their equal-peak Rs on the Cs bound below 0 and fell back to
+    the one-at-a-time design, which ends at this corner (Rs ~1e-13 Ω, Cs on its bound)."""
+    cs = np.exp(u)
+    thr = bp.threshold(cs, idx)
+    thr2 = bp.threshold(cs * math.exp(_H_THR), idx)
+    rs = thr + _BOUNDARY_GAP * np.maximum(np.abs(thr), bp.R0[idx])
+    pb = rc_peaks_batch(bp, rs, cs, idx, gradients=True)
+    v = np.where(np.isfinite(pb.value) & (pb.value > 0), pb.value, 0.0)
+    rows = np.arange(idx.size)
+    order = np.argsort(-v, axis=1)
+    top, nxt = order[:, 0], order[:, 1]
+    lv = np.log(np.where(v > 0, v, np.nan))
+    gap = lv[rows, top] - np.where(v[rows, nxt] > 0, lv[rows, nxt], -np.inf)
+    g = pb.grad[rows, top]
+    mu1 = g[:, 0]
+    mu2 = -g[:, 1] - g[:, 0] * (thr2 - thr) / _H_THR
+    ok = (np.isfinite(thr) & np.isfinite(thr2) & (v[rows, top] > 0) & (gap > 1e-9)
+          & np.isfinite(g).all(axis=1) & (mu1 >= 0) & (mu2 >= 0))
+    return rs, ok
+
+
 def cs_bound(bp: BatchPlant) -> np.ndarray:
     """``(n,)`` each draw's upper bound on ``ln Cs``, as :func:`design_rc_shunt` sets it:
     ``Cs_max = 1e3/(L_eq ω0²)`` with ``L_eq = Im(Ze(jω0) − R0)/ω0`` (one model call per chunk)."""
@@ -511,6 +539,20 @@ def design_draws(bp: BatchPlant, start: tuple[float, float], *, R0_start: float 
         k = single[ok_b]
         if k.size:
             Rs[k], lcs[k] = rs_b[ok_b], u_b[ok_b]
+            Cs[k] = np.exp(lcs[k])
+            pk = rc_peaks_batch(bp, Rs[k], Cs[k], k)
+            margin[k] = bp.margin(Rs[k], Cs[k], k)
+            pb = PeakBatch(pb.value.copy(), pb.omega.copy(), pb.grad, pb.exact)
+            pb.value[k], pb.omega[k] = pk.value, pk.omega
+            fine[k] = margin[k] > 0
+    # both bounds active: Cs at its upper bound and Rs on the stability boundary (the equal-peak Rs on
+    # the Cs bound lies on the unstable side)
+    corner = np.flatnonzero(~fine & bound & (margin <= 0))
+    if corner.size:
+        rs_c, ok_c = _at_corner(bp, corner, lmax[corner])
+        k = corner[ok_c]
+        if k.size:
+            Rs[k], lcs[k] = rs_c[ok_c], lmax[k]
             Cs[k] = np.exp(lcs[k])
             pk = rc_peaks_batch(bp, Rs[k], Cs[k], k)
             margin[k] = bp.margin(Rs[k], Cs[k], k)
