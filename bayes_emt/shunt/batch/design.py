@@ -351,6 +351,21 @@ def _at_corner(bp, idx, u):
     return rs, ok
 
 
+def _place(bp, k, rs, u, Rs, lcs, Cs, margin, fine, pb: PeakBatch) -> PeakBatch:
+    """Draws ``k`` moved to ``Rs = rs``, ``ln Cs = u`` (in place in ``Rs``, ``lcs``, ``Cs``,
+    ``margin``, ``fine``: accepted where stable); returns the peaks with theirs replaced."""
+    if not k.size:
+        return pb
+    Rs[k], lcs[k] = rs, u
+    Cs[k] = np.exp(lcs[k])
+    pk = rc_peaks_batch(bp, Rs[k], Cs[k], k)
+    margin[k] = bp.margin(Rs[k], Cs[k], k)
+    pb = PeakBatch(pb.value.copy(), pb.omega.copy(), pb.grad, pb.exact)
+    pb.value[k], pb.omega[k] = pk.value, pk.omega
+    fine[k] = margin[k] > 0
+    return pb
+
+
 def cs_bound(bp: BatchPlant) -> np.ndarray:
     """``(n,)`` each draw's upper bound on ``ln Cs``, as :func:`design_rc_shunt` sets it:
     ``Cs_max = 1e3/(L_eq ω0²)`` with ``L_eq = Im(Ze(jω0) − R0)/ω0`` (one model call per chunk)."""
@@ -536,29 +551,13 @@ def design_draws(bp: BatchPlant, start: tuple[float, float], *, R0_start: float 
     single = np.flatnonzero(~fine & ~bound & (np.count_nonzero(v > 0, axis=1) == 1))
     if single.size:
         rs_b, u_b, ok_b = _on_boundary(bp, single, lcs[single].copy())
-        k = single[ok_b]
-        if k.size:
-            Rs[k], lcs[k] = rs_b[ok_b], u_b[ok_b]
-            Cs[k] = np.exp(lcs[k])
-            pk = rc_peaks_batch(bp, Rs[k], Cs[k], k)
-            margin[k] = bp.margin(Rs[k], Cs[k], k)
-            pb = PeakBatch(pb.value.copy(), pb.omega.copy(), pb.grad, pb.exact)
-            pb.value[k], pb.omega[k] = pk.value, pk.omega
-            fine[k] = margin[k] > 0
+        pb = _place(bp, single[ok_b], rs_b[ok_b], u_b[ok_b], Rs, lcs, Cs, margin, fine, pb)
     # both bounds active: Cs at its upper bound and Rs on the stability boundary (the equal-peak Rs on
     # the Cs bound lies on the unstable side)
     corner = np.flatnonzero(~fine & bound & (margin <= 0))
     if corner.size:
         rs_c, ok_c = _at_corner(bp, corner, lmax[corner])
-        k = corner[ok_c]
-        if k.size:
-            Rs[k], lcs[k] = rs_c[ok_c], lmax[k]
-            Cs[k] = np.exp(lcs[k])
-            pk = rc_peaks_batch(bp, Rs[k], Cs[k], k)
-            margin[k] = bp.margin(Rs[k], Cs[k], k)
-            pb = PeakBatch(pb.value.copy(), pb.omega.copy(), pb.grad, pb.exact)
-            pb.value[k], pb.omega[k] = pk.value, pk.omega
-            fine[k] = margin[k] > 0
+        pb = _place(bp, corner[ok_c], rs_c[ok_c], lmax[corner[ok_c]], Rs, lcs, Cs, margin, fine, pb)
     att = 20 * np.log10(pb.hinf / bp.open_peak)
     fallback = ~fine
     todo = np.flatnonzero(fallback)
