@@ -71,17 +71,22 @@ DEFINITIONAL_METHOD = (
 _COMPARED = ("fs", "Qms", "Qes", "Qts")
 
 
+def _curve_impedances(curve: dict) -> tuple[np.ndarray, np.ndarray]:
+    """``(data, model)`` complex impedances [Ω] of a T/S result's ``curve`` record (|Z| and phase in
+    degrees, :mod:`.curve`)."""
+    def z(mag, ph):
+        return np.asarray(curve[mag], float) * np.exp(1j * np.deg2rad(np.asarray(curve[ph], float)))
+
+    return z("data_abs_z_ohm", "data_phase_deg"), z("fit_abs_z_ohm", "fit_phase_deg")
+
+
 def curve_residual_structure(curve: dict | None) -> dict | None:
     """The fit's residual test (:func:`~bayes_emt.estimation.adequacy.residual_structure`) on the T/S
     result's ``curve`` record (the main model's curve against the free-air data): ``{"structured",
     "runs_z", "rho_max"}``, or ``None`` when the record has no fitted curve or too few points."""
     if not curve or "fit_abs_z_ohm" not in curve or len(curve.get("f_hz", ())) < 20:
         return None
-
-    def z(mag, ph):
-        return np.asarray(curve[mag], float) * np.exp(1j * np.deg2rad(np.asarray(curve[ph], float)))
-
-    zd, zf = z("data_abs_z_ohm", "data_phase_deg"), z("fit_abs_z_ohm", "fit_phase_deg")
+    zd, zf = _curve_impedances(curve)
     with np.errstate(all="ignore"):
         e = (1.0 / zf - 1.0 / zd) * np.abs(zd)  # (Y_fit - Y_data)/|Y_data|, as the fit's test reads it
     if not np.all(np.isfinite(e)):
@@ -102,9 +107,7 @@ def small_on_curve(curve: dict | None, re, *, use_phase: bool, seed: int) -> tup
         return None
     f = np.asarray(curve["f_hz"], float)
     out = []
-    for mag, ph in ((curve["data_abs_z_ohm"], curve["data_phase_deg"]),
-                    (curve["fit_abs_z_ohm"], curve["fit_phase_deg"])):
-        z = np.asarray(mag, float) * np.exp(1j * np.deg2rad(np.asarray(ph, float)))
+    for z in _curve_impedances(curve):
         try:
             mf = model_free_ts(Measurement.from_impedance(2 * math.pi * f, z), re, use_phase=use_phase,
                                n_draws=200, seed=seed)
