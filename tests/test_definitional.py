@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from conftest import REALDATA
 
+from bayes_emt.estimation.dark_uncertainty import another_method
 from bayes_emt.estimation.plateau import PLATEAU_FS_RATIO, plateau_reading
 from bayes_emt.io.resolution import low_band_rows
 from bayes_emt.thiele_small.definitional import (
@@ -42,6 +43,25 @@ def test_widen_is_a_log_normal_spread_of_the_stated_size():
     x = widen(v, 2.0, 0.1, rng)
     assert np.all(x > 0)
     assert np.std(np.log(x)) == pytest.approx(0.05, rel=0.01)  # τ/center
+
+
+def test_another_method_is_the_random_effects_predictive_of_a_third_method():
+    rng = np.random.default_rng(3)
+    # exact methods (u = 0): the mid-point of a and b, log-normal with sd sqrt(1.5) tau / mid-point
+    x = another_method(np.full(100_000, 2.0), 2.2, 0.0, 0.1, rng)
+    assert np.median(x) == pytest.approx(2.1, rel=2e-3)
+    assert np.std(np.log(x)) == pytest.approx(math.sqrt(1.5) * 0.1 / 2.1, rel=0.02)
+    assert np.array_equal(another_method(np.full(10, 2.0), 2.2, 0.0, 0.0, rng), np.full(10, 2.0))
+    # a world of methods whose values are mu + delta, delta ~ N(0, tau^2), two of them measured to u:
+    # the 90 % predictive from a and b (tau known) holds a third method's value c in 90 % of worlds
+    mu, tau, u, n = 10.0, 0.3, 0.05, 1500
+    held = 0
+    for _ in range(n):
+        a, b, c = mu + tau * rng.standard_normal(3) + u * np.array([*rng.standard_normal(2), 0.0])
+        draws = a + u * rng.standard_normal(2000)
+        lo, hi = np.quantile(another_method(draws, b, u, tau, rng), [0.05, 0.95])
+        held += lo <= c <= hi
+    assert held / n == pytest.approx(0.90, abs=0.025)  # binomial sd 0.8 % at n = 1500
 
 
 def _params(value, half):

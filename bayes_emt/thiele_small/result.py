@@ -47,9 +47,10 @@ class ThieleSmall:
         5-95 % of the evidence-weighted mixture over the candidate models (``inputs["mixture"]``;
         the main model alone when no other candidate has weight), ``model_only`` the main model's
         own posterior (``fast``: the fit's Gaussian approximation). With ``intervals="total"``
-        (default) or ``"misfit"``, ``ci90`` also holds the definitional spread between methods
-        (:mod:`bayes_emt.thiele_small.definitional`): such an entry carries ``ci90_model`` (the
-        mixture's interval before it) and ``definitional_sd`` (the spread's standard deviation, SI).
+        (default) or ``"misfit"``, ``ci90`` also holds where a further method's value falls, from
+        the definitional spread between methods (:mod:`bayes_emt.thiele_small.definitional`): such
+        an entry carries ``ci90_model`` (the mixture's interval before it) and ``definitional_sd``
+        (the spread's standard deviation, SI).
     inputs : what was given (files, masses, box volume, Sd, ohmmeter reading, air) and how the
         intervals were obtained (``uncertainty``: ``"posterior"`` or ``"laplace"``).
     warnings : ``{"code", "message", "model"?, "band_hz"?}`` records.
