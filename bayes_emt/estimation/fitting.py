@@ -49,7 +49,7 @@ from ..params import clip_inside
 from .adequacy import assess_fit
 from .augment import augmentation_starts
 from .checks import check_fit_inputs
-from .guess import find_initial_estimate
+from .guess import find_initial_estimate, shared_coil_candidates
 from .meter import Meter, as_meter, conflict_warning, cut_covariance, per_ohm
 from .results import FitResult
 
@@ -248,13 +248,14 @@ def _starts(meas: Measurement, model: Model, initial, max_nfev, reuse=None):
         coarse = model
         for t, (sur, _) in surrogates:
             coarse = coarse.replace_term(t, sur)
-        cfit = fit_reusing(meas, coarse, reuse, max_nfev)
+        with shared_coil_candidates():  # the surrogate's coil candidates serve both estimates
+            cfit = fit_reusing(meas, coarse, reuse, max_nfev)
+            ie = find_initial_estimate(meas, model)
         vals = cfit.parameters
         for _, (sur, convert) in surrogates:
             conv = convert(vals)
             vals = {k: v for k, v in vals.items() if k not in sur.names}
             vals.update(conv)
-        ie = find_initial_estimate(meas, model)
         label = f"{coarse.label} fit -> " + ", ".join(t.id for t, _ in surrogates)
         return ([model.vector(vals), ie.theta], [label, ie.path],
                 {"path": label, "surrogate": cfit.parameters, "surrogate_initial": cfit.info.get("initial"),

@@ -39,6 +39,8 @@ in one vectorised model call. The path taken and the distinct runners-up (extra 
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -246,6 +248,35 @@ def _coil_candidates(meas: Measurement, model: Model, plant, cache=None) -> list
     return out
 
 
+#: the coil candidates computed within :func:`shared_coil_candidates`, by data, model and plant
+_SHARED: contextvars.ContextVar[dict | None] = contextvars.ContextVar("shared_coil_candidates", default=None)
+
+
+@contextlib.contextmanager
+def shared_coil_candidates():
+    """Within the block, :func:`_coil_candidates` of the same data, model and plant is computed once
+    (it is a function of those alone): NL's start estimates its UL surrogate's coil from the same
+    plants as the UL fit's own start did just before (:func:`~.fitting.fit_admittance`)."""
+    token = _SHARED.set({} if _SHARED.get() is None else _SHARED.get())
+    try:
+        yield
+    finally:
+        _SHARED.reset(token)
+
+
+def _coil_candidates_shared(meas: Measurement, model: Model, plant, cache) -> list[tuple[str, dict]]:
+    """:func:`_coil_candidates`, taken from :func:`shared_coil_candidates`' record when it holds it."""
+    memo = _SHARED.get()
+    if memo is None:
+        return _coil_candidates(meas, model, plant, cache)
+    key = (model.label, repr(model.params.to_dict()), np.asarray(plant, float).tobytes(),
+           np.asarray(meas.omega, float).tobytes(), np.asarray(meas.Y, complex).tobytes(),
+           None if meas.weights is None else np.asarray(meas.weights, float).tobytes())
+    if key not in memo:
+        memo[key] = _coil_candidates(meas, model, plant, cache)
+    return [(method, dict(coil)) for method, coil in memo[key]]
+
+
 def _surrogate_model(model: Model):
     """``(model to estimate, convert)``: terms with a coarser surrogate replaced by it (NL's ring
     ladder by uniform rings), and ``convert(theta_est) -> theta`` mapping back."""
@@ -329,7 +360,7 @@ def _candidates(meas, model, plants, errors, cache):
     out = []
     for path, band, plant in plants:
         try:
-            coils = _coil_candidates(meas, est, plant, cache)
+            coils = _coil_candidates_shared(meas, est, plant, cache)
         except (FitError, FloatingPointError, np.linalg.LinAlgError) as exc:
             errors.append(f"{path}: {exc}")
             continue

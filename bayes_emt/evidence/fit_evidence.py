@@ -96,14 +96,17 @@ class Evidence:
     """A log evidence and how it was obtained.
 
     ``log_z`` [nats] (``nan``: no estimate); ``method`` ``"laplace"`` or ``"laplace_subspace"``
-    (the fallback; ``"failed"`` when neither gave a number); ``note`` why the screen failed and
-    what the fallback did; ``flat`` for each flat direction the parameter names it mostly moves."""
+    (the fallback; ``"failed"`` when neither gave a number; ``"bounded"`` when the fallback was not
+    run because the likelihood's maximum, ``upper`` [nats], is below what the caller needs:
+    :func:`fit_log_evidence`'s ``below``); ``note`` why the screen failed and what the fallback did;
+    ``flat`` for each flat direction the parameter names it mostly moves."""
 
     log_z: float
     method: str
     note: str = ""
     flat: tuple[tuple[str, ...], ...] = ()
     n_calls: int = 0
+    upper: float = float("nan")
 
     @property
     def fallback(self) -> bool:
@@ -348,14 +351,22 @@ def fit_start(lik: Likelihood, fit) -> tuple[np.ndarray, np.ndarray, Warp]:
     return z0, scale, Warp.of(lik.params, mask=np.arange(lik.ndim) >= k)
 
 
-def fit_log_evidence(meas: Measurement, fit, *, lik: Likelihood | None = None) -> Evidence:
+def fit_log_evidence(meas: Measurement, fit, *, lik: Likelihood | None = None,
+                     below: float | None = None) -> Evidence:
     """The Laplace log evidence [nats] of ``fit.model`` on ``meas`` from a least-squares ``fit``
     (default likelihood: Gaussian with sampled noise scales; ``lik`` for another), started by
     :func:`fit_start` (the fit's covariance to whiten, the noise coordinates warped); when the
     screen fails, :func:`subspace_laplace` at the screen's mode (module docstring), flagged by
     :attr:`Evidence.method`. A model holding one instrument step has its step frequency marginalised
     over the intervals between measured points (:mod:`.step_intervals`, method ``"laplace_step"``)
-    first; the screen and its fallback only when that fails."""
+    first; the screen and its fallback only when that fails.
+
+    ``below`` [nats]: where the screen fails and every prior is uniform in sampling space (the log
+    posterior is then the log-likelihood plus a constant inside the support, so its mode is the
+    likelihood's maximum), the fallback is not run when the log-likelihood at that mode is below
+    ``below``: the evidence, never above the likelihood's maximum (``Z = ∫ L π ≤ max L``, the priors
+    proper), is then below it too; method ``"bounded"``, ``log_z`` nan, ``upper`` that maximum (the
+    largest of the mode search's local maxima, from the screen's mode and both noise regimes)."""
     lik = Likelihood(fit.model, meas) if lik is None else lik
     k = lik.model.ndim
     z0, scale, warp = fit_start(lik, fit)
@@ -378,6 +389,12 @@ def fit_log_evidence(meas: Measurement, fit, *, lik: Likelihood | None = None) -
             z_abs = clip_inside(z_abs, *lik.params.bounds_z())
             starts = np.array([mode, z0, z_abs])
             mode = posterior_mode(lik, starts, scale + 1e-12 * np.eye(lik.ndim))
+            if below is not None and not lik._box_prior.other:
+                ll_max = float(lik.log_prob_z(mode[None, :])[1][0])
+                if math.isfinite(ll_max) and ll_max < below:
+                    note = (f"{why}; the fallback was not run: the evidence is at most the likelihood's "
+                            f"maximum, {ll_max:.1f} nats")
+                    return Evidence(float("nan"), "bounded", note, upper=ll_max)
             # every bounded coordinate logit-mapped: a flat direction then ends inside the
             # prior's support by the map's Jacobian, and no difference point can leave it
             lz, note, flat = subspace_laplace(blocked(lik.log_posterior_z), list(lik.params.names), mode,

@@ -30,7 +30,8 @@ MIXTURE_METHOD = (
     "evidence-weighted mixture (Bayesian model averaging, equal prior odds) of the candidate models "
     "whose parameters are all determined and whose Laplace evidence could be computed under the same "
     "likelihood; the main model's component is its posterior, the others their Laplace approximation at "
-    "the posterior mode")
+    "the posterior mode; a candidate whose largest likelihood is more than 25 nats below the best evidence "
+    "has weight 0 (below 1e-10 whatever its evidence) and its evidence is not computed")
 
 
 def laplace_draws(lik, fit, n: int, rng: np.random.Generator) -> tuple[np.ndarray | None, str]:

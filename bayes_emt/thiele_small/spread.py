@@ -27,7 +27,9 @@ MODEL_SPREAD_METHOD = (
     "value, none at a prior edge) and whose posterior model probability (Laplace evidence, equal prior "
     f"odds) is at least {SPREAD_MIN_PROBABILITY:g}; candidates whose evidence could not be computed are kept "
     "unweighted; a candidate other than the main model with an undetermined parameter carries no weight and "
-    "its evidence is not computed")
+    "its evidence is not computed; nor is that of a candidate whose largest likelihood is more than 25 nats "
+    "below the best evidence (probability below 1e-10 whatever its evidence: the evidence is at most the "
+    "largest likelihood), which has probability 0")
 #: the coil models every T/S result is weighed against (the evidence-supported default ranks the same
 #: ones): the lossy-inductance, the uniform-core eddy-current models and the ring ladder with two and
 #: three rings (NL's ring count by evidence; with three, the gap inductance Pg often sits at its
@@ -53,7 +55,8 @@ def undetermined(params, theta, cov_z) -> list[str]:
 
 def select_spread_models(records: list[dict]) -> list[dict]:
     """The spread rule (module docstring) on ``records`` ``{"model", "rms", "undetermined",
-    "log_z"}`` (``log_z`` nan when not computed): returns them with ``adequate``, ``determined``,
+    "log_z"}`` (``log_z`` nan when not computed; with ``log_z_upper``, an upper bound far below the
+    best evidence, the probability is 0): returns them with ``adequate``, ``determined``,
     ``probability`` (None without evidence) and ``included`` added; ``included`` marks the models
     whose values make the spread."""
     out = [dict(r) for r in records]
@@ -69,6 +72,9 @@ def select_spread_models(records: list[dict]) -> list[dict]:
         w = np.exp(lz - lz.max())
         for r, p in zip(with_z, w / w.sum(), strict=True):
             r["probability"] = float(p)
+    for r in pool:  # evidence bounded far below the best (its largest likelihood): probability < 1e-10
+        if r["probability"] is None and "log_z_upper" in r and with_z:
+            r["probability"] = 0.0
     for r in out:
         probable = r["probability"] is None or r["probability"] >= SPREAD_MIN_PROBABILITY
         r["included"] = bool(any(r is q for q in pool) and probable)
