@@ -23,15 +23,15 @@ Run on one core:
 Target: the default run within 10 s (CPU) and within twice the white UD run. Skipped (no result)
 when the recording is absent.
 
-Where the time goes (``time.thread_time`` around each stage, one thread, load ~11 on 2 cores, a
-second call in the process): default 3.3 CPU s = candidate least-squares fits 1.33 (NL(3) with its
-UL(3) start 0.50, NL(3)+semi_inductance 0.40 from four warm starts, NL(3)+suspension_creep 0.05,
-UD 0.15, II 0.11, III 0.14), Laplace evidences 0.50 (II and III's subspace fallback 0.42), the
-NL(3)+suspension_creep posterior 1.09 (500 steps x 56 walkers), the candidates' Laplace components
-0.17, Small's method on the data and on the fitted curve 0.10, the model-free column 0.09; white UD
-1.84 = fits 0.36, evidences of II, III, UD 0.45, the UD posterior 0.85 (400 steps x 36 walkers),
-the rest 0.18. The benchmark's white run comes first in its process and also carries the imports'
-first-call cost.
+Where the time goes (``time.thread_time`` around each stage, one thread, load ~3.4 on 2 cores, a
+second call in the process), after the evidence bound (a candidate whose likelihood maximum is 25
+nats below the best evidence gets weight 0 without its evidence's fallback): default 2.8-2.9 CPU s =
+the NL(3)+suspension_creep posterior 0.83-0.94 (its stopping rule), candidate least-squares fits
+~1.5 (NL(3) with its UL(3) start 0.42, NL(3)+semi_inductance 0.35-0.38 from four warm starts, NL(2)
+0.24-0.26, UD 0.12, III 0.10, II 0.09), evidences ~0.34 (II and III's failed Laplace screen and
+mode search ~0.1 each), the candidates' mixture components 0.13, Small's method on the data and
+on the fitted curve 0.14. Before the bound: 3.1-3.3 CPU s, evidences 0.46. The benchmark's white
+run comes first in its process and also carries the imports' first-call cost.
 """
 
 import os
