@@ -49,9 +49,14 @@ show, in long same-sign stretches, the criterion of the ``model_inadequate`` war
 0 of 61 fits of the simulating model and on every real recording); otherwise ``total`` is ``misfit``
 and the note says why.
 
-On the truth corpus (16 recordings, 82 references) the default held 61/82 (74 %) at a median
-half-width of 4.3 % (centred on the model with sd τ, before the predictive: 53/82, 3.7 %); the model
-alone 4/82 at 0.6 %. Before the residual
+fs has two model-free definitions, the phase zero and the |Z| peak (they differ by the coil's
+reactance at resonance; benches that fit a model land near the peak), so for fs there are three
+methods (:func:`bayes_emt.thiele_small.model_free.fs_definitions`, each with the curve's noise
+alone), τ their ``k``-method estimate and the predictive their mean with ``(1 + 1/k) τ²``.
+
+On the truth corpus (16 recordings, 82 references) the default held 64/82 (78 %) at a median
+half-width of 4.4 % (two methods for fs: 61/82, 4.3 %; centred on the model with sd τ, before the
+predictive: 53/82, 3.7 %); the model alone 4/82 at 0.6 %. Before the residual
 test, on simulated drivers whose model is exact, ``total`` over-covered the model's own convention
 (a lossy coil biases Small's fs and Qms: fs intervals 8-21 times the model's, every fs inside).
 """
