@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import REALDATA
 
-from bayes_emt.estimation.dark_uncertainty import another_method
+from bayes_emt.estimation.dark_uncertainty import another_method, between_methods_sd
 from bayes_emt.estimation.plateau import PLATEAU_FS_RATIO, plateau_reading
 from bayes_emt.io.resolution import low_band_rows
 from bayes_emt.thiele_small.definitional import (
@@ -48,20 +48,31 @@ def test_widen_is_a_log_normal_spread_of_the_stated_size():
 def test_another_method_is_the_random_effects_predictive_of_a_third_method():
     rng = np.random.default_rng(3)
     # exact methods (u = 0): the mid-point of a and b, log-normal with sd sqrt(1.5) tau / mid-point
-    x = another_method(np.full(100_000, 2.0), 2.2, 0.0, 0.1, rng)
+    x = another_method(np.full(100_000, 2.0), [(2.2, 0.0)], 0.1, rng)
     assert np.median(x) == pytest.approx(2.1, rel=2e-3)
     assert np.std(np.log(x)) == pytest.approx(math.sqrt(1.5) * 0.1 / 2.1, rel=0.02)
-    assert np.array_equal(another_method(np.full(10, 2.0), 2.2, 0.0, 0.0, rng), np.full(10, 2.0))
+    assert np.array_equal(another_method(np.full(10, 2.0), [(2.2, 0.0)], 0.0, rng), np.full(10, 2.0))
     # a world of methods whose values are mu + delta, delta ~ N(0, tau^2), two of them measured to u:
     # the 90 % predictive from a and b (tau known) holds a third method's value c in 90 % of worlds
+    # (and from three methods: their mean, (1 + 1/3) tau^2)
     mu, tau, u, n = 10.0, 0.3, 0.05, 1500
-    held = 0
-    for _ in range(n):
-        a, b, c = mu + tau * rng.standard_normal(3) + u * np.array([*rng.standard_normal(2), 0.0])
-        draws = a + u * rng.standard_normal(2000)
-        lo, hi = np.quantile(another_method(draws, b, u, tau, rng), [0.05, 0.95])
-        held += lo <= c <= hi
-    assert held / n == pytest.approx(0.90, abs=0.025)  # binomial sd 0.8 % at n = 1500
+    for k in (2, 3):
+        held = 0
+        for _ in range(n):
+            vals = mu + tau * rng.standard_normal(k + 1) + u * np.r_[rng.standard_normal(k), 0.0]
+            draws = vals[0] + u * rng.standard_normal(2000)
+            lo, hi = np.quantile(another_method(draws, [(b, u) for b in vals[1:k]], tau, rng), [0.05, 0.95])
+            held += lo <= vals[k] <= hi
+        assert held / n == pytest.approx(0.90, abs=0.025), k  # binomial sd 0.8 % at n = 1500
+
+
+def test_between_methods_sd_of_k_methods():
+    two = between_method_sd(1.0, 1.1, 0.03, 0.04)
+    assert between_methods_sd([1.0, 1.1], [0.03, 0.04]) == pytest.approx(two, rel=1e-12)
+    v = [1.0, 1.2, 1.1]
+    assert between_methods_sd(v, [0, 0, 0]) == pytest.approx(np.std(v, ddof=1), rel=1e-12)
+    assert between_methods_sd(v, [0.5, 0.5, 0.5]) == 0.0
+    assert between_methods_sd([1.0], [0.0]) == 0.0
 
 
 def _params(value, half):

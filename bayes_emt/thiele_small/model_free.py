@@ -50,8 +50,8 @@ import numpy as np
 
 from ..measurement import Measurement
 
-__all__ = ["ModelFree", "ModelFreeUndefined", "model_free_ts", "resonance", "MODEL_FREE_METHOD",
-           "SECOND_PEAK_FRACTION"]
+__all__ = ["ModelFree", "ModelFreeUndefined", "model_free_ts", "resonance", "fs_definitions",
+           "MODEL_FREE_METHOD", "SECOND_PEAK_FRACTION"]
 
 #: a second + to − phase crossing whose |Z| prominence is at least this fraction of the main
 #: peak's makes the curve a two-peak curve (vented box) on which Small's method is undefined
@@ -260,6 +260,39 @@ def _small(f, mag, phase, re: float, cubic: bool, where: str, noise: float = 0.0
     qes = qms / (r0 - 1)
     return {"fs": fs, "Re": re, "Zmax": zmax, "f1": f1, "f2": f2, "Qms": qms, "Qes": qes,
             "Qts": qms * qes / (qms + qes)}
+
+
+def fs_definitions(meas: Measurement, *, use_phase: bool = True, n_draws: int = 100, seed: int = 0) -> dict:
+    """The two model-free definitions of fs on one curve, each with its own uncertainty from the curve's
+    noise alone: ``{"phase_zero": (value, u), "peak": (value, u)}`` [Hz] (``u`` the standard
+    uncertainty of the resampled 90 % interval), the phase zero only with ``use_phase`` (a
+    magnitude-only curve has no phase zero of its own).
+    They differ by the coil's reactance at resonance: the field uses both (benches that fit a model
+    land near the |Z| peak), so for the spread between methods they are two methods, not one
+    method's noise. Raises :class:`ModelFreeUndefined` as :func:`resonance` does."""
+    f, mag, ph = _curve(meas, use_phase and not meas.phase_absent)
+    lf = np.log(f)
+    s_m = _noise(np.log(mag), lf)
+    s_p = 0.0 if ph is None else _noise(ph, lf)
+    rng = np.random.default_rng([int(seed), 31])
+    out = {}
+    for name, phase in (("phase_zero", ph), ("peak", None)):
+        if name == "phase_zero" and ph is None:
+            continue
+        v0 = resonance(f, mag, phase, noise=s_m, where=meas.source)["fs"]
+        draws = []
+        for _ in range(n_draws):
+            m2 = mag * np.exp(s_m * rng.standard_normal(mag.size))
+            p2 = None if phase is None else phase + s_p * rng.standard_normal(phase.size)
+            try:
+                draws.append(resonance(f, m2, p2, noise=math.sqrt(2.0) * s_m, where=meas.source)["fs"])
+            except ModelFreeUndefined:
+                continue
+        if len(draws) < n_draws // 2:
+            continue
+        lo, hi = np.quantile(np.asarray(draws), [0.05, 0.95])
+        out[name] = (float(v0), float(hi - lo) / (2 * 1.6448536269514722))
+    return out
 
 
 def split_peak(f, mag, f1: float, f2: float, noise: float) -> list[float]:
