@@ -182,37 +182,6 @@ def test_three_equal_peaks_batched_equals_one_at_a_time():
     _compare(model, _draws(model, theta, 20), max_fallback=1)
 
 
-#: one draw of the LS10-44 added-mass NL(4)+second_resonance+suspension_creep posterior (``sample --seed
-#: 0`` on ../shared/realdata/dayton_LS10-44_added100g_run2.txt; draw 994 of ``shunt --posterior``'s
-#: 1000) and the posterior median's design it starts from (Rs [ohm], Cs [F], that median's R0 [ohm]).
-#: Its optimum is a vertex of two resonance peaks and the band's low edge where the top peak's hull
-#: weight is -1e-4 and every multiplier positive
-LS10_44_MASS_NL4 = {"zeta": 0.006281539780398622, "omega0": 198.11135226800056, "phi": 42.106193489025756,
-                    "R0": 7.258163016837434, "Pg": 3.144546099569522e-13, "P1": 3.7647915522336734e-08,
-                    "P2": 2.8399531199761533e-08, "P3": 8.804960674670285e-09,
-                    "P4": 9.074435010173018e-09, "R1": 1.1880527096755924e-05,
-                    "R2": 6.942293737155483e-05, "R3": 0.0002752285344003302, "R4": 0.0035601522306849386,
-                    "zeta2": 0.027170851091263312, "omega2": 81.2956042668616, "phi2": 2.2978142686961225,
-                    "lambda_creep": 0.0702713519491615}
-LS10_44_MASS_NL4_START = (4.141046780988519, 0.0027053828825387037, 7.297006407517797)
-
-
-def test_vertex_with_band_edge_judged_by_its_multipliers():
-    """The batch dropped the top peak of that vertex for its negative hull weight; the pair left went
-    where the dropped peak lay 2 % above it and the draw fell back (~6 CPU s). The vertex is the
-    optimum the one-at-a-time design finds from its own start."""
-    model = build_model("NL(4)+second_resonance+suspension_creep")
-    theta = model.vector(LS10_44_MASS_NL4)
-    rs0, cs0, r0 = LS10_44_MASS_NL4_START
-    opt = design_draws(BatchPlant(model, theta[None, :]), (rs0, cs0), R0_start=r0)
-    assert not opt.fallback.any()
-    d = design_rc_shunt(model, theta)
-    assert opt.Rs[0] == pytest.approx(d.Rs, rel=1e-6)
-    assert opt.Cs[0] == pytest.approx(d.Cs, rel=1e-6)
-    assert opt.attenuation_db[0] == pytest.approx(d.attenuation_db, rel=1e-6)
-    assert sum(v > d.peak * (1 - 1e-6) for _, v in d.peaks) == 3  # the case is a three-peak vertex
-
-
 def test_hull_weights_are_the_three_peak_optimality_condition():
     """The weights with sum 1 that cancel three gradients: all >= 0 exactly when zero lies in the
     triangle of the gradients (the min-max optimality condition at three equal peaks)."""
