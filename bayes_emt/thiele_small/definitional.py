@@ -86,7 +86,8 @@ DEFINITIONAL_METHOD = (
     "value b (Re: the fit's R0 and the low-frequency plateau reading): centred on (a+b)/2, variance "
     "1.5 tau^2 + (u_a^2+u_b^2)/4, tau^2 = max(0, (a-b)^2/2 - (u_a^2+u_b^2)/2) (DerSimonian-Laird for two "
     "methods; Higgins, Thompson & Spiegelhalter 2009 for the prediction); fs: the model, the phase zero and "
-    "the |Z| peak as three methods (their mean, (1 + 1/k) tau^2 + sum u^2/k^2, tau^2 = max(0, s^2 - mean u^2))")
+    "the |Z| peak as three methods (their mean, (1 + 1/k) tau^2 + sum u^2/k^2, tau^2 = max(0, s^2 - "
+    "mean u^2))")
 
 #: the quantities Small's method gives beside the model
 _COMPARED = ("fs", "Qms", "Qes", "Qts")
