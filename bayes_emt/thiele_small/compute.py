@@ -536,9 +536,9 @@ def evidence_supported_model(meas: Measurement, *, noise: str = "white",
                     comps)
     best = max(comps, key=lambda m: rank_key(comps[m][2]))
     det = {m: c[2] for m, c in comps.items() if not c[2]["undetermined"]}
-    probs = mixture_weights({m: r["log_z"] for m, r in det.items()})
     # a candidate whose likelihood's maximum is far below the best evidence: probability below 1e-10
-    probs = {m: probs.get(m, 0.0) for m, r in det.items() if m in probs or "log_z_upper" in r}
+    probs = mixture_weights({m: r["log_z"] for m, r in det.items()},
+                            bounded={m for m, r in det.items() if "log_z_upper" in r})
     return parse_model_spec(best), probs
 
 
@@ -704,10 +704,8 @@ def thiele_small(data, model=None, *, loaded: Sequence[tuple] = (), box: tuple |
     # the mixture: the main model's posterior and the determined candidates' components, by evidence
     lz = {r["model"]: r["log_z"] for r in records
           if r["model"] in comp_draws and (r["determined"] or r is records[0])}
-    weights = mixture_weights(lz)
     # a candidate whose evidence is bounded far below the leader's (_resolve_pending) weighs 0
-    bounded = {r["model"] for r in records if "log_z_upper" in r}
-    weights = {m: weights.get(m, 0.0) for m in lz if m in weights or (weights and m in bounded)}
+    weights = mixture_weights(lz, bounded={r["model"] for r in records if "log_z_upper" in r})
     if main.label not in weights:
         weights = {main.label: 1.0}
     if not included:  # no candidate is adequate and determined (the best fit left a parameter

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Collection
 
 import numpy as np
 
@@ -85,16 +86,18 @@ def laplace_draws(lik, fit, n: int, rng: np.random.Generator) -> tuple[np.ndarra
     return lik.model.params.from_z(np.clip(z, lo, hi)), ""
 
 
-def mixture_weights(log_z: dict[str, float]) -> dict[str, float]:
+def mixture_weights(log_z: dict[str, float], bounded: Collection[str] = ()) -> dict[str, float]:
     """Posterior model probabilities ``P_i = Z_i / Σ Z_j`` (equal prior odds) of the models with a
-    finite ``log_z``; the others get none."""
+    finite ``log_z``; the others get none, except those in ``bounded`` (an evidence not computed
+    because the likelihood's maximum lies far below the best evidence): weight 0 beside the others
+    (none when no model has a weight). In ``log_z``'s order."""
     ok = {m: v for m, v in log_z.items() if math.isfinite(v)}
     if not ok:
         return {}
     top = max(ok.values())
     w = {m: math.exp(v - top) for m, v in ok.items()}
     s = sum(w.values())
-    return {m: x / s for m, x in w.items()}
+    return {m: w[m] / s if m in w else 0.0 for m in log_z if m in w or m in bounded}
 
 
 def weighted_quantiles(values, weights, q) -> np.ndarray:
