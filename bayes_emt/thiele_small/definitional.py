@@ -130,15 +130,14 @@ def small_on_curve(curve: dict | None, re, *, use_phase: bool, seed: int) -> tup
     f = np.asarray(curve["f_hz"], float)
     out = []
     for z in _curve_impedances(curve):
+        meas = Measurement.from_impedance(2 * math.pi * f, z)
         try:
-            mf = model_free_ts(Measurement.from_impedance(2 * math.pi * f, z), re, use_phase=use_phase,
-                               n_draws=200, seed=seed)
+            mf = model_free_ts(meas, re, use_phase=use_phase, n_draws=200, seed=seed)
         except (ModelFreeUndefined, ValueError):
             return None
         vals = {n: (float(q["value"]), half_width_sd(q.get("ci90"))) for n, q in mf.parameters.items()}
         try:  # fs by each of its two model-free definitions, each with its noise alone
-            defs = fs_definitions(Measurement.from_impedance(2 * math.pi * f, z), use_phase=use_phase,
-                                  seed=seed)
+            defs = fs_definitions(meas, use_phase=use_phase, seed=seed)
         except (ModelFreeUndefined, ValueError):
             defs = {}
         vals.update({f"fs_{k}": v for k, v in defs.items()})

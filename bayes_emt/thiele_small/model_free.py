@@ -48,6 +48,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..estimation.dark_uncertainty import half_width_sd
 from ..measurement import Measurement
 
 __all__ = ["ModelFree", "ModelFreeUndefined", "model_free_ts", "resonance", "fs_definitions",
@@ -97,6 +98,13 @@ class ModelFree:
 
 UNITS_MF = {"fs": "Hz", "Re": "ohm", "Zmax": "ohm", "f1": "Hz", "f2": "Hz", "Qms": "1", "Qes": "1",
             "Qts": "1", "Mms": "kg", "Cms": "m/N", "Bl": "T m"}
+
+
+def _perturbed(mag: np.ndarray, ph: np.ndarray | None, s_m: float, s_p: float, rng: np.random.Generator):
+    """``(|Z|, phase)`` resampled within the curve's noise: relative Gaussian noise ``s_m`` on |Z|,
+    Gaussian noise ``s_p`` [rad] on the phase (None stays None)."""
+    m2 = mag * np.exp(s_m * rng.standard_normal(mag.size))
+    return m2, (None if ph is None else ph + s_p * rng.standard_normal(ph.size))
 
 
 def _noise(x: np.ndarray, lf: np.ndarray) -> float:
@@ -276,22 +284,17 @@ def fs_definitions(meas: Measurement, *, use_phase: bool = True, n_draws: int = 
     s_p = 0.0 if ph is None else _noise(ph, lf)
     rng = np.random.default_rng([int(seed), 31])
     out = {}
-    for name, phase in (("phase_zero", ph), ("peak", None)):
-        if name == "phase_zero" and ph is None:
-            continue
+    for name, phase in ([("phase_zero", ph)] if ph is not None else []) + [("peak", None)]:
         v0 = resonance(f, mag, phase, noise=s_m, where=meas.source)["fs"]
         draws = []
         for _ in range(n_draws):
-            m2 = mag * np.exp(s_m * rng.standard_normal(mag.size))
-            p2 = None if phase is None else phase + s_p * rng.standard_normal(phase.size)
             try:
-                draws.append(resonance(f, m2, p2, noise=math.sqrt(2.0) * s_m, where=meas.source)["fs"])
+                draws.append(resonance(f, *_perturbed(mag, phase, s_m, s_p, rng), noise=math.sqrt(2.0) * s_m,
+                                       where=meas.source)["fs"])
             except ModelFreeUndefined:
                 continue
-        if len(draws) < n_draws // 2:
-            continue
-        lo, hi = np.quantile(np.asarray(draws), [0.05, 0.95])
-        out[name] = (float(v0), float(hi - lo) / (2 * 1.6448536269514722))
+        if len(draws) >= n_draws // 2:
+            out[name] = (float(v0), half_width_sd(np.quantile(np.asarray(draws), [0.05, 0.95])))
     return out
 
 
@@ -386,11 +389,7 @@ def model_free_ts(meas: Measurement, re: float | tuple[float, float], *, re_sour
     draws: dict[str, list[float]] = {k: [] for k in point}
     failed, why = 0, ""
     for _ in range(n_draws):
-        xy = []
-        for f, mag, ph, s_m, s_p in data:
-            m2 = mag * np.exp(s_m * rng.standard_normal(mag.size))
-            p2 = None if ph is None else ph + s_p * rng.standard_normal(ph.size)
-            xy.append((f, m2, p2))
+        xy = [(f, *_perturbed(mag, ph, s_m, s_p, rng)) for f, mag, ph, s_m, s_p in data]
         re_i = re_v + re_sd * rng.standard_normal()
         try:
             v = evaluate(xy, re_i, bool(rng.integers(2)), bool(rng.integers(2)), math.sqrt(2.0))
