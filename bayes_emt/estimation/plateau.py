@@ -14,9 +14,17 @@ The reading, from a fit of the recording (``model``, ``theta``):
 * per row the model's motional part is taken off: ``R_i = Re Z_meas(f_i) − (Re Z_model(f_i) − R0)``
   (phase known), or ``sqrt(|Z_meas(f_i)|² − X_model(f_i)²) − (Re Z_model(f_i) − R0)`` for a
   magnitude-only file (``X_model`` the model's reactance there);
-* value: the median of the ``R_i``; standard deviation: the rows' own scatter (sample sd; the
-  written resolution of |Z| when one row) combined with half the largest motional correction
-  taken off, a type-B allowance for the model's part in it (JCGM 100:2008, 4.3).
+* value: the median of the ``R_i``; standard deviation: the median's standard error from the rows'
+  scatter (``1.2533 s/√n``; at least the written resolution of |Z|) combined with half the
+  largest motional correction taken off, a type-B allowance for the model's part in it (JCGM
+  100:2008, 4.3).
+
+Beside it, ``raw``: the same rows read as a bench reads them, the median of |Z| with nothing taken
+off (a bench's literal reading: DATS's ``R(e)`` lies within 1.3 % of it on three DATS exports),
+with the median's standard error alone. The two differ by the
+driver's own impedance above Re there (creep and coil losses keep a woofer's real part rising
+towards DC); a bench that reports the raw reading is another method for Re
+(:mod:`bayes_emt.thiele_small.definitional`).
 
 :func:`plateau_reading` returns the reading as a :class:`~bayes_emt.estimation.meter.Meter` with
 the rows it used, or ``None`` when the recording has no such rows below ``fs / PLATEAU_FS_RATIO``.
@@ -45,8 +53,9 @@ PLATEAU_FS_RATIO = 8.0
 @dataclass(frozen=True)
 class PlateauReading:
     """The plateau's Re reading: ``meter`` (value ± sd [Ω], mode cut), the rows used (``f_hz``,
-    ``r_ohm`` after the motional correction), the largest correction taken off [Ω], and the R0 [Ω]
-    of the full-band fit (model ``fit_model``) the correction came from."""
+    ``r_ohm`` after the motional correction), the largest correction taken off [Ω], the R0 [Ω]
+    of the full-band fit (model ``fit_model``) the correction came from, and ``raw`` the same rows'
+    median |Z| with nothing taken off (the bench's literal reading; module docstring)."""
 
     meter: Meter
     f_hz: tuple[float, ...]
@@ -54,9 +63,11 @@ class PlateauReading:
     max_correction_ohm: float
     r0_fit_ohm: float
     fit_model: str = ""
+    raw: Meter | None = None
 
     def to_json_dict(self) -> dict:
-        return {"ohm": self.meter.value, "sd_ohm": self.meter.sd, "mode": self.meter.mode,
+        raw = {} if self.raw is None else {"raw_abs_z_ohm": self.raw.value, "raw_sd_ohm": self.raw.sd}
+        return {"ohm": self.meter.value, "sd_ohm": self.meter.sd, "mode": self.meter.mode, **raw,
                 "rows_f_hz": list(self.f_hz), "rows_ohm": list(self.r_ohm),
                 "max_motional_correction_ohm": self.max_correction_ohm, "r0_fit_ohm": self.r0_fit_ohm,
                 "fit_model": self.fit_model,
@@ -88,10 +99,19 @@ def plateau_reading(meas, model, theta, fs_hz: float) -> PlateauReading | None:
     if not np.all(np.isfinite(r)) or np.median(r) <= 0:
         return None
     value = float(np.median(r))
-    scatter = float(np.std(r, ddof=1)) if r.size > 1 else _written_resolution(mag[0])
-    sd = math.hypot(max(scatter, _written_resolution(mag[0])), 0.5 * float(np.max(np.abs(corr))))
+    sd = math.hypot(_median_se(r, mag[0]), 0.5 * float(np.max(np.abs(corr))))
+    raw_sd = _median_se(mag, mag[0])
     return PlateauReading(Meter(value, sd, "cut"), tuple(float(x) for x in f), tuple(float(x) for x in r),
-                          float(np.max(np.abs(corr))), r0, model.label)
+                          float(np.max(np.abs(corr))), r0, model.label,
+                          raw=Meter(float(np.median(mag)), raw_sd, "cut"))
+
+
+def _median_se(x: np.ndarray, written: float) -> float:
+    """The standard uncertainty of the median of the rows ``x`` [Ω]: its standard error
+    ``1.2533 s/√n`` (``s`` the rows' sample sd; the median of a normal sample), at least the
+    resolution of a |Z| written as ``written`` (:func:`_written_resolution`)."""
+    se = 1.2533 * float(np.std(x, ddof=1)) / math.sqrt(x.size) if x.size > 1 else 0.0
+    return max(se, _written_resolution(float(written)))
 
 
 def _written_resolution(x: float) -> float:
