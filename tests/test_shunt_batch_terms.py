@@ -231,3 +231,42 @@ def test_corner_of_both_bounds_settles_in_the_batch():
 def test_corner_of_both_bounds_batched_equals_one_at_a_time():
     model, th = _corner_case(12)
     _compare(model, th)
+
+
+#: a draw of the LS10-44 added-mass NL(4)+second_resonance+suspension_creep posterior (../shared/realdata,
+#: dayton_LS10-44_added100g_run2.txt, ``sample --seed 0``) that the batched Newton cannot settle: three
+#: near-equal peaks, one of them the band's low edge; it falls back from its own optimum as the start
+LS10_44_MASS_NL4_DRAW = {"zeta": 0.006281333612, "omega0": 198.0159487, "phi": 42.02202839,
+                         "R0": 7.306467426, "Pg": 9.494690193e-13, "P1": 3.652487607e-08,
+                         "P2": 2.816786695e-08, "P3": 8.625396416e-09, "P4": 9.484238309e-09,
+                         "R1": 1.14168513e-05, "R2": 6.975759715e-05, "R3": 0.0002548467605,
+                         "R4": 0.003201464887, "zeta2": 0.03221327389, "omega2": 80.8566383,
+                         "phi2": 2.503059082, "lambda_creep": 0.0707095356}
+
+
+def test_fallback_equals_the_one_at_a_time_design(monkeypatch):
+    """A draw the batch hands to the one-at-a-time search (:func:`rc_optimum`, the design without its
+    report) gets design_rc_shunt's Rs, Cs, attenuation and margin from the same start, within 1e-6
+    relative; the fallback is counted."""
+    import bayes_emt.shunt.batch.design as batch_design
+
+    model = build_model("NL(4)+second_resonance+suspension_creep")
+    theta = model.vector(LS10_44_MASS_NL4_DRAW)
+    nom = design_rc_shunt(model, theta)
+    starts = []
+    real = batch_design.rc_optimum
+
+    def spy(model_, theta_, *, start):
+        starts.append(start)
+        return real(model_, theta_, start=start)
+
+    monkeypatch.setattr(batch_design, "rc_optimum", spy)
+    th = np.stack([theta, theta])  # a repeated draw (an MCMC chain's rejected step) is solved once
+    opt = design_draws(BatchPlant(model, th), (nom.Rs, nom.Cs), R0_start=nom.R0)
+    assert opt.fallback.all() and len(starts) == 1  # the case exercises the fallback
+    d = design_rc_shunt(model, theta, start=starts[0])
+    for i in range(2):
+        assert opt.Rs[i] == pytest.approx(d.Rs, rel=1e-6)
+        assert opt.Cs[i] == pytest.approx(d.Cs, rel=1e-6)
+        assert opt.attenuation_db[i] == pytest.approx(d.attenuation_db, rel=1e-6)
+        assert opt.margin[i] == pytest.approx(d.stability_margin, rel=1e-6)

@@ -43,7 +43,7 @@ from .safety import check_margin
 from .stability import StabilityReport, assess_stability, instability_threshold, threshold_grid
 
 __all__ = ["ShuntDesign", "ShuntEvaluation", "ShuntWarning", "closed_form_rc", "design_rc_shunt",
-           "evaluate_rc_shunt", "read_shunt_design", "design_from_json_dict"]
+           "evaluate_rc_shunt", "rc_optimum", "read_shunt_design", "design_from_json_dict"]
 
 
 class ShuntWarning(UserWarning):
@@ -366,15 +366,56 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
     ShuntDesign
     """
     theta = np.asarray(theta, float)
+    plant, grid, cf, rs, lcs, ev, info = _optimise(model, theta, start, bandwidth, warn=True)
+    Cs = math.exp(lcs)
+    final = plant.local_peaks(lambda s: rc_impedance(s, rs, Cs))
+    hs = sorted((p.value for p in final), reverse=True)
+    lcs_max = info.pop("_lcs_max")
+    if ev.stability_margin < BACKOFF_NEAR * max(abs(ev.Rs_instability), plant.R0):
+        optimum = "at the stability boundary"
+    elif lcs > lcs_max - 1e-3:
+        optimum = "Cs at its upper bound (a pure negative resistance does as well)"
+    elif len(hs) > 1 and hs[1] > hs[0] * (1 - 1e-6):
+        optimum = "equal peaks"
+    else:
+        optimum = "single peak"
+    cf_att = math.nan
+    if math.isfinite(cf["Cs"]):
+        cf_att = evaluate_rc_shunt(model, theta, cf["Rs"], cf["Cs"], plant=plant, grid=grid,
+                                   bandwidth=bandwidth).attenuation_db
+    info["R0"] = plant.R0
+    safety = check_margin(ev.Rs, ev.Cs, ev.Rs_instability, plant.R0, r0_uncertainty,
+                          what=f"the {model.label} shunt")
+    band = _below_band(plant, rs, Cs, final, ev)
+    return ShuntDesign(**asdict(ev), closed_form={**cf, "attenuation_db": cf_att},
+                       peaks=tuple((p.omega, p.value) for p in final), optimum=optimum, info=info,
+                       r0_uncertainty_ohm=safety.r0_uncertainty_ohm, r0_uncertainty=safety.r0_uncertainty,
+                       warnings=safety.warnings + band, notes=safety.notes)
+
+
+def rc_optimum(model: Model, theta, *, start: tuple[float, float] | None = None,
+               bandwidth: float | None = None) -> ShuntEvaluation:
+    """The optimum of :func:`design_rc_shunt` (the same search, step for step: the same ``Rs``,
+    ``Cs``, attenuation and stability margin) without the design's report: no closed form's
+    evaluation, no peak list, no margin check against the R0 uncertainty, no look below the band.
+    What the batched per-draw design (:func:`~bayes_emt.shunt.batch.design.design_draws`) hands a draw
+    to when its Newton iteration cannot settle it."""
+    theta = np.asarray(theta, float)
+    return _optimise(model, theta, start, bandwidth, warn=False)[5]
+
+
+def _optimise(model: Model, theta, start, bandwidth, *, warn: bool):
+    """The search of :func:`design_rc_shunt`: ``(plant, grid, closed form, Rs, ln Cs, evaluation,
+    info)`` (``info["_lcs_max"]`` the bound on ln Cs)."""
     plant = Plant(model, theta)
-    if plant.zeta >= 1 / math.sqrt(2):
+    if warn and plant.zeta >= 1 / math.sqrt(2):
         warnings.warn(f"model {model.label}: ζ = {plant.zeta:.3g} ≥ 1/√2, the open-terminal receptance has "
-                      "no resonant peak; there is nothing for a shunt to damp", ShuntWarning, stacklevel=2)
+                      "no resonant peak; there is nothing for a shunt to damp", ShuntWarning, stacklevel=3)
     grid = threshold_grid(model, theta)
-    if bandwidth is None and not model.plain_mechanics:
+    if warn and bandwidth is None and not model.plain_mechanics:
         cap = _capacitive_threshold(model, theta, grid)
         if cap is not None:
-            warnings.warn(cap, ShuntWarning, stacklevel=2)
+            warnings.warn(cap, ShuntWarning, stacklevel=3)
     zc = complex(plant.ze(np.array([plant.omega0]))[0]) - plant.R0
     L_eq = max(zc.imag / plant.omega0, 1e-300)
     lcs_max = math.log(1e3 / (L_eq * plant.omega0**2))
@@ -421,28 +462,8 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
             if ev2.stable and ev2.attenuation_db < ev.attenuation_db:
                 rs, lcs, Cs, ev = rs2, lcs2, math.exp(lcs2), ev2
                 info["stability_backoff"] += "; polished again from there"
-    final = plant.local_peaks(lambda s: rc_impedance(s, rs, Cs))
-    hs = sorted((p.value for p in final), reverse=True)
-    if ev.stability_margin < BACKOFF_NEAR * max(abs(ev.Rs_instability), plant.R0):
-        optimum = "at the stability boundary"
-    elif lcs > lcs_max - 1e-3:
-        optimum = "Cs at its upper bound (a pure negative resistance does as well)"
-    elif len(hs) > 1 and hs[1] > hs[0] * (1 - 1e-6):
-        optimum = "equal peaks"
-    else:
-        optimum = "single peak"
-    cf_att = math.nan
-    if math.isfinite(cf["Cs"]):
-        cf_att = evaluate_rc_shunt(model, theta, cf["Rs"], cf["Cs"], plant=plant, grid=grid,
-                                   bandwidth=bandwidth).attenuation_db
-    info["R0"] = plant.R0
-    safety = check_margin(ev.Rs, ev.Cs, ev.Rs_instability, plant.R0, r0_uncertainty,
-                          what=f"the {model.label} shunt")
-    band = _below_band(plant, rs, Cs, final, ev)
-    return ShuntDesign(**asdict(ev), closed_form={**cf, "attenuation_db": cf_att},
-                       peaks=tuple((p.omega, p.value) for p in final), optimum=optimum, info=info,
-                       r0_uncertainty_ohm=safety.r0_uncertainty_ohm, r0_uncertainty=safety.r0_uncertainty,
-                       warnings=safety.warnings + band, notes=safety.notes)
+    info["_lcs_max"] = lcs_max
+    return plant, grid, cf, rs, lcs, ev, info
 
 
 BELOW_BAND_CODE = "peak_below_design_band"

@@ -51,9 +51,7 @@ def _peak_in(plant: Plant, rs: float, lcs: float, lo: float, hi: float) -> float
     i = int(np.argmax(g))
     a, b = x[max(i - 1, 0)], x[min(i + 1, x.size - 1)]
 
-    def neg(v):
-        return -float(np.abs(plant.receptance(np.array([math.exp(v)]), zs, exact=False))[0])
-
+    neg = plant._scalar_neg(plant._spline, 0.0, zs)
     r = optimize.minimize_scalar(neg, bounds=(a, b), method="bounded", options={"xatol": 1e-11})
     return math.log(max(-float(r.fun), float(g[i])))
 

@@ -21,6 +21,8 @@ in ``log ω``, accurate to ~1e-12) so an optimiser can evaluate many shunts chea
 
 from __future__ import annotations
 
+import bisect
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -87,6 +89,16 @@ class Peak:
     omega: float
 
 
+def _scalar_table(spl):
+    """``(breakpoints, coefficients)`` of a spline as Python lists (cached on the spline): per
+    interval the four coefficient rows, each a tuple of complex values."""
+    t = getattr(spl, "_scalar_table", None)
+    if t is None:
+        t = (spl.x.tolist(), [tuple(tuple(row) for row in iv) for iv in spl.c.transpose(1, 0, 2).tolist()])
+        spl._scalar_table = t
+    return t
+
+
 def _local_max_indices(g):
     i = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] >= g[2:])) + 1
     ends = [j for j, k in ((0, 1), (g.size - 1, g.size - 2)) if g[j] > g[k]]
@@ -121,6 +133,7 @@ class Plant:
         self._plain_mech = not any(t.device and t.stage in ("stiffness", "motional_parallel")
                                    for t in model.terms)
         self._spline = interpolate.CubicSpline(self._lw, np.stack([self.Ze, self.mech, self.Yp], axis=-1))
+        self._wide_cache = None
 
     # ---- evaluation --------------------------------------------------------------------------
     def _parts(self, omega, exact: bool):
@@ -173,13 +186,54 @@ class Plant:
                 return float(np.exp(y1 - 0.125 * (y0 - y2) ** 2 / den))
         return float(g[i])
 
+    def _scalar_neg(self, spl, c: float, Zs, *, plain: bool | None = None):
+        """``u -> −|m·G(j exp(c + u))|`` on the spline ``spl`` of ``(Ze, mech, Yp)`` in ``log ω``, one
+        point at a time in Python scalars (the searches' inner loop: the same sums as
+        :meth:`receptance` with ``exact=False``, without an array per point). ``plain``: the plain
+        mechanical polynomial evaluated exactly (default: as :meth:`_parts` does). Outside the
+        spline's range the exact model is evaluated, as :meth:`_parts` does."""
+        xs, coef = _scalar_table(spl)
+        plain = self._plain_mech if plain is None else plain
+        zeta, omega0, phi2 = self.zeta, self.omega0, self.phi**2
+        last = len(xs) - 2
+        w_lo, w_hi = math.exp(xs[0]), math.exp(xs[-1])
+
+        def neg(u):
+            x = c + u
+            w = math.exp(x)
+            if not w_lo <= w <= w_hi:
+                return -float(np.abs(self.receptance(np.array([w]), Zs, exact=True))[0])
+            i = min(max(bisect.bisect_right(xs, x) - 1, 0), last)
+            dx = x - xs[i]
+            z = dx * dx
+            z3 = z * dx
+            c0, c1, c2, c3 = coef[i]
+            ze = c3[0] + c2[0] * dx + c1[0] * z + c0[0] * z3
+            yp = c3[2] + c2[2] * dx + c1[2] * z + c0[2] * z3
+            if plain:
+                mech = complex(omega0 * omega0 - w * w, 2.0 * zeta * omega0 * w)
+            else:
+                mech = c3[1] + c2[1] * dx + c1[1] * z + c0[1] * z3
+            s = complex(0.0, w)
+            if Zs is None:
+                g = 1.0 / (mech + phi2 * s * yp / (1.0 + ze * yp))
+            else:
+                zs = complex(Zs(s))
+                g = 1.0 / (mech + phi2 * s / (ze + zs / (1.0 + zs * yp)))
+            return -abs(g)
+
+        return neg
+
     # ---- accurate peaks ------------------------------------------------------------------------
     def _refine(self, Zs, i, lo, hi, exact) -> Peak:
         """Maximise ``|m·G|`` over ``log ω ∈ [lo, hi]`` (around grid point ``i``)."""
         c = self._lw[i]
 
-        def neg(u):
-            return -float(np.abs(self.receptance(np.array([np.exp(c + u)]), Zs, exact=exact))[0])
+        if exact:
+            def neg(u):
+                return -float(np.abs(self.receptance(np.array([np.exp(c + u)]), Zs, exact=exact))[0])
+        else:
+            neg = self._scalar_neg(self._spline, c, Zs)
 
         r = optimize.minimize_scalar(neg, bounds=(lo - c, hi - c), method="bounded",
                                      options={"xatol": 1e-12})
@@ -190,22 +244,40 @@ class Plant:
         g = self.grid_magnitude(Zs)
         idx = _local_max_indices(g)
         if idx.size and (idx[np.argmax(g[idx])] in (0, g.size - 1)):
-            return [self._wide_peak(Zs)]
+            return [self._wide_peak(Zs, exact)]
         out = []
         for i in sorted(idx, key=lambda j: -g[j])[:max_peaks]:
             lo, hi = self._lw[max(i - 1, 0)], self._lw[min(i + 1, g.size - 1)]
             out.append(self._refine(Zs, i, lo, hi, exact))
         return sorted(out, key=lambda p: p.omega)
 
-    def _wide_peak(self, Zs) -> Peak:
-        w = np.geomspace(self.omega0 / 8000, self.omega0 * 8000, 20000)
-        g = np.abs(self.receptance(w, Zs))
+    def _wide(self):
+        """``(w, lw, mech, Ze, Yp, spline)`` on the wide grid ``ω0/8000 .. 8000 ω0`` (20000 log-spaced
+        points), computed once per plant: the loop does not depend on the shunt. The spline (cubic in
+        ``log ω``, built on first use) serves the searches with ``exact=False``."""
+        if self._wide_cache is None:
+            w = np.geomspace(self.omega0 / 8000, self.omega0 * 8000, 20000)
+            lp = self.model.loop(1j * w, self.theta)
+            self._wide_cache = [w, np.log(w), lp.mech, lp.z_series, lp.y_parallel, None]
+        if self._wide_cache[5] is None:
+            c = self._wide_cache
+            c[5] = interpolate.CubicSpline(c[1], np.stack([c[3], c[2], c[4]], axis=-1))
+        return self._wide_cache
+
+    def _wide_peak(self, Zs, exact: bool = True) -> Peak:
+        """The largest maximum of ``|m·G|`` on ``ω0/8000 .. 8000 ω0``, refined on the exact model
+        (``exact=False``: on the wide grid's spline, ~1e-12 relative, for optimisers)."""
+        w, lw, mech, ze, yp, spl = self._wide()
+        s = 1j * w
+        g = np.abs(_shunted(mech, self.phi**2 * s, ze, yp, None if Zs is None else Zs(s)))
         i = int(np.argmax(g))
-        lw = np.log(w)
         c = lw[i]
 
-        def neg(u):
-            return -float(np.abs(self.receptance(np.array([np.exp(c + u)]), Zs))[0])
+        if exact:
+            def neg(u):
+                return -float(np.abs(self.receptance(np.array([np.exp(c + u)]), Zs))[0])
+        else:
+            neg = self._scalar_neg(spl, c, Zs)
 
         lo, hi = lw[max(i - 1, 0)] - c, lw[min(i + 1, w.size - 1)] - c
         r = optimize.minimize_scalar(neg, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})

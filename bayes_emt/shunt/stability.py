@@ -89,6 +89,23 @@ def _infinity_candidate(model: Model, theta, omega0: float) -> float:
     return -np.inf
 
 
+#: the last few ``_infinity_candidate`` values by (model, θ): an optimiser asks for the threshold at
+#: thousands of ``Cs`` on one parameter vector, and the candidate does not depend on ``Cs``
+_INF_CACHE: dict = {}
+
+
+def _infinity_candidate_cached(model: Model, theta) -> float:
+    key = (id(model), theta.tobytes())
+    hit = _INF_CACHE.get(key)
+    if hit is not None and hit[0] is model:
+        return hit[1]
+    v = _infinity_candidate(model, theta, float(model.mechanics(theta)[1]))
+    if len(_INF_CACHE) >= 16:
+        _INF_CACHE.pop(next(iter(_INF_CACHE)))
+    _INF_CACHE[key] = (model, v)
+    return v
+
+
 def instability_threshold(model: Model, theta, Cs: float, *, grid=None, refine: bool = True,
                           bandwidth: float | None = None):
     """The Rs [Ω] below which the RC-shunted loop is unstable (module docstring).
@@ -131,7 +148,7 @@ def instability_threshold(model: Model, theta, Cs: float, *, grid=None, refine: 
     best = float(np.max(cand)) if cand.size else -np.inf
     if bandwidth is not None:
         return best
-    return max(best, _infinity_candidate(model, theta, float(model.mechanics(theta)[1])))
+    return max(best, _infinity_candidate_cached(model, theta))
 
 
 def characteristic_function(model: Model, theta, Rs: float, Cs: float, omega):

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..design import design_rc_shunt
+from ..design import rc_optimum
 from .peaks import PeakBatch, grid_value, rc_peaks_batch
 from .plant import SPAN, BatchPlant
 
@@ -567,9 +567,18 @@ def design_draws(bp: BatchPlant, start: tuple[float, float], *, R0_start: float 
     att = 20 * np.log10(pb.hinf / bp.open_peak)
     fallback = ~fine
     todo = np.flatnonzero(fallback)
+    # the one-at-a-time search without its report (:func:`rc_optimum`: the design's Rs, Cs, attenuation
+    # and margin, which is all the batch keeps); a draw repeated in the posterior (an MCMC chain
+    # stays put on a rejected step) with the same start is the same problem and is solved once
+    # (LS10-44 added-mass NL(4)+second_resonance+suspension_creep: 3 of its 8 fallbacks one vector)
+    solved: dict = {}
     for k, i in enumerate(todo):
-        d = design_rc_shunt(bp.model, bp.thetas[i], start=(float(Rs[i]) if np.isfinite(Rs[i]) else start[0],
-                                                            float(Cs[i]) if np.isfinite(Cs[i]) else start[1]))
+        x0 = (float(Rs[i]) if np.isfinite(Rs[i]) else start[0],
+              float(Cs[i]) if np.isfinite(Cs[i]) else start[1])
+        key = (bp.thetas[i].tobytes(), x0)
+        if key not in solved:
+            solved[key] = rc_optimum(bp.model, bp.thetas[i], start=x0)
+        d = solved[key]
         Rs[i], Cs[i], att[i], margin[i] = d.Rs, d.Cs, d.attenuation_db, d.stability_margin
         if progress is not None:
             progress(n - todo.size + k + 1, n)
