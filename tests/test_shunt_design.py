@@ -286,3 +286,22 @@ def test_scalar_peak_search_equals_the_array_receptance(spec, extra):
     for x in (wide[1][0] - 1.0, wide[1][-1] + 1.0):  # outside: the exact model
         ref = abs(plant.receptance(np.array([math.exp(x)]), zs, exact=True)[0])
         assert -neg_w(x) == pytest.approx(ref, rel=1e-14)
+
+
+def test_polish_stays_near_its_start_and_warns_of_nothing():
+    """The nominal design at a real posterior's median (GRS 12SW-4HE woofer, DATS export, UD; the
+    parameters as constants): the minimax polish's SLSQP once stepped to ln Cs = -1330, where Cs
+    underflows to 0 and the RC shunt divided by zero (numpy warnings printed by ``shunt --posterior``).
+    Its ln Cs is now bounded below (``POLISH_CS_RANGE``): no warning, a finite stable design."""
+    import warnings
+
+    from bayes_emt.models import parse_model_spec
+    from bayes_emt.shunt.minimax import POLISH_CS_RANGE
+
+    theta = np.array([0.1279267693692444, 155.7275972758519, 33.239622120851635, 4.653221551844039,
+                      0.0005835507979726168, 0.000834942966737089, 0.25158811047368757])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        d = design_rc_shunt(parse_model_spec("UD"), theta)
+    assert POLISH_CS_RANGE > 1
+    assert d.stable and math.isfinite(d.Rs) and d.Cs > 0 and d.attenuation_db < -10

@@ -40,6 +40,8 @@ _NEAR = 0.05
 #: ``_EDGE_GAP``)
 EDGE_GAP = 1e-9
 _H = 1e-7  # central-difference step: Rs relative to |Rs| + R0, ln Cs absolute
+#: how far below its start the polish may take Cs (a factor): it refines an optimum already found
+POLISH_CS_RANGE = 1e3
 
 
 def _peak_in(plant: Plant, rs: float, lcs: float, lo: float, hi: float) -> float:
@@ -161,10 +163,13 @@ def minimax_polish(plant: Plant, model, theta, grid, rs: float, lcs: float, lcs_
         return out
 
     x0 = np.array([rs, min(lcs, lcs_max), top])
+    # a polish stays near its start: Cs at most POLISH_CS_RANGE times smaller (without a floor a trial
+    # step reached ln Cs = -1330, where Cs underflows to 0 and the RC shunt is numerically 1/0)
+    lcs_lo = float(x0[1]) - math.log(POLISH_CS_RANGE)
     try:
         r = optimize.minimize(lambda x: x[2], x0, jac=lambda x: np.array([0.0, 0.0, 1.0]), method="SLSQP",
                               constraints=[{"type": "ineq", "fun": cons, "jac": cons_jac}],
-                              bounds=[(None, None), (None, lcs_max), (None, None)],
+                              bounds=[(None, None), (lcs_lo, lcs_max), (None, None)],
                               options={"ftol": 1e-15, "maxiter": 60})
     except (ValueError, ArithmeticError) as exc:  # a window or a threshold without a value
         info["minimax_polish"] = f"not used ({exc})"
@@ -178,7 +183,7 @@ def minimax_polish(plant: Plant, model, theta, grid, rs: float, lcs: float, lcs_
     for x, near in starts:
         x = _finish(val_jac, x, n_pk, use_edge, lcs_max, near=near)
         rs1, lcs1 = float(x[0]), float(x[1])
-        if not (math.isfinite(rs1) and math.isfinite(lcs1)):
+        if not (math.isfinite(rs1) and math.isfinite(lcs1) and lcs1 >= lcs_lo):
             continue
         if rs1 <= instability_threshold(model, theta, math.exp(lcs1), grid=grid, refine=False,
                                         bandwidth=bandwidth):
