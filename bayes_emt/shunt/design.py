@@ -366,11 +366,10 @@ def design_rc_shunt(model: Model, theta, *, start: tuple[float, float] | None = 
     ShuntDesign
     """
     theta = np.asarray(theta, float)
-    plant, grid, cf, rs, lcs, ev, info = _optimise(model, theta, start, bandwidth, warn=True)
+    plant, grid, cf, rs, lcs, lcs_max, ev, info = _optimise(model, theta, start, bandwidth, warn=True)
     Cs = math.exp(lcs)
     final = plant.local_peaks(lambda s: rc_impedance(s, rs, Cs))
     hs = sorted((p.value for p in final), reverse=True)
-    lcs_max = info.pop("_lcs_max")
     if ev.stability_margin < BACKOFF_NEAR * max(abs(ev.Rs_instability), plant.R0):
         optimum = "at the stability boundary"
     elif lcs > lcs_max - 1e-3:
@@ -401,12 +400,12 @@ def rc_optimum(model: Model, theta, *, start: tuple[float, float] | None = None,
     What the batched per-draw design (:func:`~bayes_emt.shunt.batch.design.design_draws`) hands a draw
     to when its Newton iteration cannot settle it."""
     theta = np.asarray(theta, float)
-    return _optimise(model, theta, start, bandwidth, warn=False)[5]
+    return _optimise(model, theta, start, bandwidth, warn=False)[6]
 
 
 def _optimise(model: Model, theta, start, bandwidth, *, warn: bool):
-    """The search of :func:`design_rc_shunt`: ``(plant, grid, closed form, Rs, ln Cs, evaluation,
-    info)`` (``info["_lcs_max"]`` the bound on ln Cs)."""
+    """The search of :func:`design_rc_shunt`: ``(plant, grid, closed form, Rs, ln Cs, the bound on
+    ln Cs, evaluation, info)``."""
     plant = Plant(model, theta)
     if warn and plant.zeta >= 1 / math.sqrt(2):
         warnings.warn(f"model {model.label}: ζ = {plant.zeta:.3g} ≥ 1/√2, the open-terminal receptance has "
@@ -462,8 +461,7 @@ def _optimise(model: Model, theta, start, bandwidth, *, warn: bool):
             if ev2.stable and ev2.attenuation_db < ev.attenuation_db:
                 rs, lcs, Cs, ev = rs2, lcs2, math.exp(lcs2), ev2
                 info["stability_backoff"] += "; polished again from there"
-    info["_lcs_max"] = lcs_max
-    return plant, grid, cf, rs, lcs, ev, info
+    return plant, grid, cf, rs, lcs, lcs_max, ev, info
 
 
 BELOW_BAND_CODE = "peak_below_design_band"

@@ -134,6 +134,7 @@ class Plant:
                                    for t in model.terms)
         self._spline = interpolate.CubicSpline(self._lw, np.stack([self.Ze, self.mech, self.Yp], axis=-1))
         self._wide_cache = None
+        self._wide_spl = None
 
     # ---- evaluation --------------------------------------------------------------------------
     def _parts(self, omega, exact: bool):
@@ -186,14 +187,14 @@ class Plant:
                 return float(np.exp(y1 - 0.125 * (y0 - y2) ** 2 / den))
         return float(g[i])
 
-    def _scalar_neg(self, spl, c: float, Zs, *, plain: bool | None = None):
+    def _scalar_neg(self, spl, c: float, Zs):
         """``u -> −|m·G(j exp(c + u))|`` on the spline ``spl`` of ``(Ze, mech, Yp)`` in ``log ω``, one
         point at a time in Python scalars (the searches' inner loop: the same sums as
-        :meth:`receptance` with ``exact=False``, without an array per point). ``plain``: the plain
-        mechanical polynomial evaluated exactly (default: as :meth:`_parts` does). Outside the
-        spline's range the exact model is evaluated, as :meth:`_parts` does."""
+        :meth:`receptance` with ``exact=False``, without an array per point; a plain mechanical
+        polynomial evaluated exactly, as :meth:`_parts` does). Outside the spline's range the exact
+        model is evaluated, as :meth:`_parts` does."""
         xs, coef = _scalar_table(spl)
-        plain = self._plain_mech if plain is None else plain
+        plain = self._plain_mech
         zeta, omega0, phi2 = self.zeta, self.omega0, self.phi**2
         last = len(xs) - 2
         w_lo, w_hi = math.exp(xs[0]), math.exp(xs[-1])
@@ -252,22 +253,26 @@ class Plant:
         return sorted(out, key=lambda p: p.omega)
 
     def _wide(self):
-        """``(w, lw, mech, Ze, Yp, spline)`` on the wide grid ``ω0/8000 .. 8000 ω0`` (20000 log-spaced
-        points), computed once per plant: the loop does not depend on the shunt. The spline (cubic in
-        ``log ω``, built on first use) serves the searches with ``exact=False``."""
+        """``(w, lw, mech, Ze, Yp)`` on the wide grid ``ω0/8000 .. 8000 ω0`` (20000 log-spaced points),
+        computed once per plant: the loop does not depend on the shunt."""
         if self._wide_cache is None:
             w = np.geomspace(self.omega0 / 8000, self.omega0 * 8000, 20000)
             lp = self.model.loop(1j * w, self.theta)
-            self._wide_cache = [w, np.log(w), lp.mech, lp.z_series, lp.y_parallel, None]
-        if self._wide_cache[5] is None:
-            c = self._wide_cache
-            c[5] = interpolate.CubicSpline(c[1], np.stack([c[3], c[2], c[4]], axis=-1))
+            self._wide_cache = (w, np.log(w), lp.mech, lp.z_series, lp.y_parallel)
         return self._wide_cache
+
+    def _wide_spline(self):
+        """The wide grid's ``(Ze, mech, Yp)`` as a cubic spline in ``log ω``, built on first use: it
+        serves only the searches with ``exact=False``."""
+        if self._wide_spl is None:
+            _, lw, mech, ze, yp = self._wide()
+            self._wide_spl = interpolate.CubicSpline(lw, np.stack([ze, mech, yp], axis=-1))
+        return self._wide_spl
 
     def _wide_peak(self, Zs, exact: bool = True) -> Peak:
         """The largest maximum of ``|m·G|`` on ``ω0/8000 .. 8000 ω0``, refined on the exact model
         (``exact=False``: on the wide grid's spline, ~1e-12 relative, for optimisers)."""
-        w, lw, mech, ze, yp, spl = self._wide()
+        w, lw, mech, ze, yp = self._wide()
         s = 1j * w
         g = np.abs(_shunted(mech, self.phi**2 * s, ze, yp, None if Zs is None else Zs(s)))
         i = int(np.argmax(g))
@@ -277,7 +282,7 @@ class Plant:
             def neg(u):
                 return -float(np.abs(self.receptance(np.array([np.exp(c + u)]), Zs))[0])
         else:
-            neg = self._scalar_neg(spl, c, Zs)
+            neg = self._scalar_neg(self._wide_spline(), c, Zs)
 
         lo, hi = lw[max(i - 1, 0)] - c, lw[min(i + 1, w.size - 1)] - c
         r = optimize.minimize_scalar(neg, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
