@@ -37,7 +37,8 @@ from ._demo_budget import budget_seconds as _budget_seconds
 EXAMPLES = """\
 bayes-emt demo --quick  (about 2 min: fewer models, short chains; the report says what it cut)
 bayes-emt demo --out demo_run  (the whole chain, then open demo_run/report.html)
-bayes-emt demo --data speaker.zma --concealed other.zma  (your own recordings instead of the bundled ones)
+bayes-emt demo --data speaker.zma  (your own recording: fitted, sampled, shunted and diagnosed)
+bayes-emt demo --data speaker.zma --concealed other.zma  (diagnose another recording than --data)
 bayes-emt demo --skip diagnose --quiet
 """
 
@@ -96,7 +97,8 @@ def register(sub) -> None:
     p.add_argument("--phase-unit", choices=["deg", "rad"], default=None,
                    help="phase column unit of --data and --concealed, when the file does not say")
     p.add_argument("--concealed", default=None, metavar="FILE",
-                   help="recording to diagnose instead of the bundled concealed_bench.csv")
+                   help="recording to diagnose (default: --data when given, else the bundled "
+                   "concealed_bench.csv)")
     p.add_argument("--seed", type=seed, default=0,
                    help="seed of every stochastic step, a non-negative integer (default 0)")
     p.add_argument("--max-steps", type=int_at_least(1), default=None,
@@ -216,12 +218,16 @@ def run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     units = {"freq_unit": getattr(args, "freq_unit", None), "phase_unit": getattr(args, "phase_unit", None)}
     meas = be.read(args.data, **units) if args.data else be.load_paper_bench()
-    concealed = be.read(args.concealed, **units) if args.concealed else be.load_concealed_bench()
+    # the user's own recording is the one diagnosed unless another is named: the bundled concealed-effect
+    # recording belongs to the bundled demo
+    concealed = (be.read(args.concealed, **units) if args.concealed
+                 else meas if args.data else be.load_concealed_bench())
     truth = meas.meta.get("written_meta", {}).get("truth") if not args.data else None
+    roles = "main chain: fits, evidence, posterior, shunts"
     run_rec = {"title": "bayes_emt demo" + (" (--quick)" if args.quick else ""), "quick": bool(args.quick),
                "seed": args.seed, "cut": list(QUICK_CUTS) if args.quick else list(FULL_CUTS),
-               "data": [_recording_summary(meas, "main chain: fits, evidence, posterior, shunts"),
-                        _recording_summary(concealed, "diagnosis")],
+               "data": ([_recording_summary(meas, roles + ", diagnosis")] if concealed is meas else
+                        [_recording_summary(meas, roles), _recording_summary(concealed, "diagnosis")]),
                "diagnosed": str(concealed.source), "truth": truth,
                "time_budget_s": d.budget.total, "budget_shares": dict(SHARES) if d.budget.total else None}
     if d.budget.total:
@@ -592,9 +598,9 @@ def _robust_worker(out: str, post_file: str, fit_file: str | None, n_draws: int,
 
 
 def _diagnose(d: _Demo, meas, model: str) -> None:
-    """Diagnose the concealed-effect recording, starting from ``model`` (the one the evidence
-    preferred on the main recording, the same device), and draw its residuals with the flagged
-    bands."""
+    """Diagnose ``meas`` (the bundled concealed-effect recording, ``--data`` or ``--concealed``),
+    starting from ``model`` (the one the evidence preferred on the main recording, the same device),
+    and draw its residuals with the flagged bands."""
     from ... import api as be
     from ...plotting import save_figure
     from ...plotting.discovery import plot_bode_overlay
