@@ -282,7 +282,8 @@ def search_other(diag, meas: Measurement, other: Measurement, **settings) -> dic
     each physics id it names that ``diag``'s findings do not, fitted on A (``meas``, thinned as
     ``diag``'s search was) added to ``diag``'s final fit (module docstring). Returns ``{"final_model",
     "baseline_model", "findings", "seconds", "budget_hit", "only_other": [{"physics",
-    "delta_log_evidence_first" [nats], "needed_by_first", "model", "note"}]}``."""
+    "delta_log_evidence_first" [nats], "needed_by_first", "model", "note"}]}``; a step A's points do not
+    show is not needed by A, with no gain computed (``None``; :func:`.name.fit_candidate`)."""
     say = settings.get("progress")
     if say:
         say(f"the second recording {other.source}, diagnosed from {diag.baseline_fit.model.label}:")
@@ -307,8 +308,16 @@ def search_other(diag, meas: Measurement, other: Measurement, **settings) -> dic
             i_hi = max(i_lo, int(np.searchsorted(a.omega, f.band.hi, side="right")) - 1)
             band = Band(f.band.lo, f.band.hi, min(i_lo, a.n_points - 1), min(i_hi, a.n_points - 1),
                         f.band.parts, 0.0, 0.0, f.band.peak_omega)
-            res = [(c, ev) for c, ev in (fit_candidate(a, fit_a, pid, band) if math.isfinite(lz_a) else [])
-                   if ev is not None and math.isfinite(ev.log_z)]
+            tried = fit_candidate(a, fit_a, pid, band) if math.isfinite(lz_a) else []
+            res = [(c, ev) for c, ev in tried if ev is not None and math.isfinite(ev.log_z)]
+            refused = [(c, ev) for c, ev in tried if ev is not None and ev.method == "refused"]
+            if not res and refused:  # a step A's measured points do not show: A does not need it
+                only.append({"physics": pid, "delta_log_evidence_first": None, "needed_by_first": False,
+                             "model": refused[0][0].model.label,
+                             "note": f"{other.source} names it and {meas.source} does not need it (its "
+                             f"measured points show no such step: {refused[0][1].note}): a term only one "
+                             "recording needs"})
+                continue
             if not res:
                 only.append({"physics": pid, "delta_log_evidence_first": None, "needed_by_first": None,
                              "model": None, "note": f"{other.source} names it; its fit on {meas.source} "

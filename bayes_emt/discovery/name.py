@@ -289,13 +289,18 @@ def fit_candidate(
     model without its last augmentation) is fitted once per diagnosis whatever the band or round;
     the result does not depend on it (:func:`~bayes_emt.estimation.fitting.fit_reusing`).
     ``evidence=False``: a catalogue term's best fit alone, ``[(fit, None)]`` (its evidence is
-    computed by whoever needs it: :func:`_refine` only for a fit that replaces its warm one)."""
+    computed by whoever needs it: :func:`_refine` only for a fit that replaces its warm one). A single
+    step term's fit whose step the measured points do not show gets no evidence (method
+    ``"refused"``, :func:`_step_fit_evidence`): it is refused whatever its evidence."""
     out = []
-    if "+" in physics:
+    single = "+" not in physics
+    if not single:
         physics = physics.split("+")[-1]
     if physics == EDDY_PHYSICS:
-        # up the ladder; NL's ring count by evidence: more rings until one more ring loses
-        best = -math.inf
+        # up the ladder; NL's ring count by evidence: more rings until one more ring loses, or until
+        # NO_EVIDENCE_RUNGS rungs in a row have no finite evidence (nothing to compare: a rung's
+        # evidence fails where its rings are not determined, and more rings only add such directions)
+        best, without = -math.inf, 0
         for model in escalations(current.model):
             try:
                 fit = fit_reusing(meas, model, None if cache is None else cache.fits)
@@ -308,6 +313,9 @@ def fit_candidate(
                 if best > -math.inf and not lz > best:
                     break
                 best = max(best, lz) if math.isfinite(lz) else best
+                without = 0 if math.isfinite(lz) else without + 1
+                if without >= NO_EVIDENCE_RUNGS:
+                    break
         return out
     term = make_term(physics)
     try:
@@ -334,10 +342,28 @@ def fit_candidate(
             w = f.model.as_dict(f.theta)[term.step_at]
             if all(abs(math.log(w / f2.model.as_dict(f2.theta)[term.step_at])) > 1e-3 for f2 in distinct):
                 distinct.append(f)
-        return [(f, fit_log_evidence(meas, f)) for f in distinct]
+        return [(f, _step_fit_evidence(meas, current, f, physics, single)) for f in distinct]
     best = min(ok, key=lambda f: f.chi2)
     return [(best, fit_log_evidence(meas, best) if evidence else None)]
 
+
+def _step_fit_evidence(meas: Measurement, current: FitResult, fit: FitResult, physics: str,
+                       single: bool) -> Evidence:
+    """The evidence of a step term's fit, or, for a single term whose step the measured points do not
+    show (:func:`.prefer.step_evidence`, the refusal :func:`rank_candidates` gives it whatever its
+    evidence), none: method ``"refused"``, the reason as its note (the step's evidence sums a Laplace
+    evidence over the intervals between points, the costliest of a round's candidates). A pair's
+    step is judged against the round's model, not the pair's first term: its evidence is computed."""
+    from .prefer import step_evidence
+
+    why = step_evidence(meas, current, fit, physics) if single else None
+    return fit_log_evidence(meas, fit) if why is None else Evidence(float("nan"), "refused", why)
+
+
+#: NL rungs in a row without a finite evidence after which the eddy-current escalation's ring ladder
+#: stops (:func:`fit_candidate`): on koan_tweeter.zma all six rungs NL(2)..NL(7) had none, half the
+#: diagnosis's time
+NO_EVIDENCE_RUNGS = 2
 
 #: points either side of a step start searched for its discontinuity (:func:`_divided_fits`)
 STEP_SHIFT = 3
@@ -582,7 +608,7 @@ def rank_candidates(
     best_eddy = max(eddy, key=lambda c: c.log_z, default=None)
     best_phys = max((c for c in eddy if not c.patch), key=lambda c: c.log_z, default=None)
     out = [c for c in out if c.physics != EDDY_PHYSICS or c is best_eddy or c is best_phys]
-    out.sort(key=lambda c: (not c.accepted, -c.delta_log_z))
+    out.sort(key=lambda c: (not c.accepted, -c.delta_log_z if math.isfinite(c.delta_log_z) else math.inf))
     return out
 
 
@@ -636,7 +662,7 @@ def _candidates(meas, current, band, sigma_rel, physics, res, dt, current_log_z,
         if progress:
             how = "" if not ev.fallback else f" [{ev.method}: {ev.note}]"
             progress(f"  {physics}: {fit.model.label} log Z {lz:.1f}{how} ({dt:.0f} s)")
-        if not math.isfinite(lz):
+        if not math.isfinite(lz) and ev.method != "refused":  # a refused step stays, for the record
             continue
         after = band_chi2(meas, fit.model, fit.theta, band, sigma_rel)
         new_names = [n for n in fit.model.names if n not in current.model.names]
