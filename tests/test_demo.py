@@ -200,10 +200,10 @@ def test_demo_with_data_diagnoses_that_recording_unless_another_is_named(tmp_pat
     """``demo --data FILE`` diagnoses FILE (the user's own recording), not the bundled
     concealed-effect recording; ``--concealed OTHER`` diagnoses OTHER. The chain's steps are stubbed:
     only which recording reaches the diagnosis is tested."""
-    from bayes_emt.cli.commands import demo as demo_cmd
-    from bayes_emt.io.simulate import simulate
     from bayes_emt.api import read
+    from bayes_emt.cli.commands import demo as demo_cmd
     from bayes_emt.io import write_measurement
+    from bayes_emt.io.simulate import simulate
     from bayes_emt.models import parse_model_spec
 
     def rec(name, r0):
