@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -41,7 +42,10 @@ def decision(r: dict) -> list[dict]:
             if ARTIFACT not in c["physics"].split("+"):
                 continue
             out.append({"round": t["round"], "physics": c["physics"],
-                        "delta_log_evidence": round(c["delta_log_evidence"], 1),
+                        # None: a step the measured points do not show, refused before its evidence
+                        "delta_log_evidence": (None if c["delta_log_evidence"] is None
+                                               or not math.isfinite(c["delta_log_evidence"])
+                                               else round(c["delta_log_evidence"], 1)),
                         "accepted": c["accepted"], "patch_problem": c["patch_problem"],
                         "choice": [n for n in t.get("choice", []) if ARTIFACT in n]})
     return out
@@ -108,7 +112,8 @@ def main(argv=None) -> int:
     rows = []
     for x in recs:
         why = "; ".join(
-            f"r{d['round']} {d['physics']} {d['delta_log_evidence']:g} nats "
+            f"r{d['round']} {d['physics']} "
+            + ("(no evidence) " if d["delta_log_evidence"] is None else f"{d['delta_log_evidence']:g} nats ")
             + ("accepted" if d["accepted"] else f"refused: {d['patch_problem'] or 'not accepted'}")
             + ("" if not d["choice"] else " / " + " / ".join(d["choice"]))
             for d in x["decision"]) or "never a candidate"
