@@ -229,3 +229,34 @@ def test_demo_with_data_diagnoses_that_recording_unless_another_is_named(tmp_pat
     want = other if concealed else data
     assert str(seen["meas"].source).endswith(want.name)
     np.testing.assert_allclose(seen["meas"].Y, read(want).Y, rtol=1e-12)  # its values, not a namesake's
+
+
+def test_demo_diagnosis_prints_the_final_model_and_what_the_final_comparison_kept(tmp_path, monkeypatch,
+                                                                                    capsys):
+    """The diagnosis step says which model it ends at and the final comparison's line: on
+    koan_tweeter.zma a quick demo starts from NL(5), finds nothing, and the final comparison keeps UD
+    (NL(5)'s evidence fails); the demo printed only "no significant mismatch found". The search is
+    stubbed with such a diagnosis."""
+    from types import SimpleNamespace
+
+    from bayes_emt import api as be
+    from bayes_emt.cli.commands import demo as demo_cmd
+    from bayes_emt.discovery.diagnose import Diagnosis
+    from bayes_emt.estimation.fitting import fit_admittance
+    from bayes_emt.io.simulate import simulate
+    from bayes_emt.models import parse_model_spec
+
+    ud = parse_model_spec("UD")
+    meas = simulate(ud, PAPER_TABLES["UD"], np.geomspace(1e1, 1e5, 120), noise=0.002, seed=0)
+    start, final = fit_admittance(meas, parse_model_spec("III")), fit_admittance(meas, ud)
+    line = ("final comparison: UD (log Z 1630.4) is kept over III (log Z 1568.5), by one evidence on the "
+            "same data")
+    diag = Diagnosis(meas.source, start, final, (), (), warnings=(line,))
+    monkeypatch.setattr(be, "fit", lambda m, model: start)
+    monkeypatch.setattr(be, "diagnose", lambda *a, **k: diag)
+    args = SimpleNamespace(quiet=False, seed=0, quick=True, out=str(tmp_path))
+    demo_cmd._diagnose(demo_cmd._Demo(args), meas, "III")
+    out = capsys.readouterr().out
+    assert "no significant mismatch found" in out
+    assert "  " + line in out
+    assert "final model: UD (the search started from III)" in out

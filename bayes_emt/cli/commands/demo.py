@@ -637,6 +637,11 @@ def _diagnose(d: _Demo, meas, model: str) -> None:
         d.say(f"  finding: {f.explanation}")
     if not diag.findings:
         d.say("  no significant mismatch found")
+    # the final comparison over coil families may keep another model than the search from `model` reached
+    for w in diag.warnings:
+        if w.startswith("final comparison"):
+            d.say("  " + w)
+    d.say(f"  final model: {diag.final_model} (the search started from {diag.baseline_model})")
     bands = [(f.band.lo / (2 * math.pi), f.band.hi / (2 * math.pi), f"{f.physics} (found)")
              for f in diag.findings]
     bands += [(u["band_rad_s"][0] / (2 * math.pi), u["band_rad_s"][1] / (2 * math.pi), "unexplained")
