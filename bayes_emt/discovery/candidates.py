@@ -28,7 +28,8 @@ from .locate import Band
 
 __all__ = ["candidate_physics", "escalations", "RING_COUNTS", "physics_in_band"]
 
-#: NL ring counts the escalation tries in order, stopping when one more ring loses evidence
+#: NL ring counts the escalation tries in order, stopping when one more ring loses evidence or after
+#: two rungs in a row without a finite evidence (:data:`.name.NO_EVIDENCE_RUNGS`)
 RING_COUNTS: tuple[int, ...] = (2, 3, 4, 5, 6, 7)
 
 
