@@ -686,7 +686,9 @@ def _candidates(meas, current, band, sigma_rel, physics, res, dt, current_log_z,
         problem = None
         if patch:
             problem = (None if ident else f"a patch with undetermined parameters ({why})")
-            problem = problem or step_evidence(meas, current, fit, physics)
+            # a step refused before its evidence (:func:`_step_fit_evidence`) carries that test's reason
+            refused = ev.note if ev.method == "refused" else None
+            problem = problem or refused or step_evidence(meas, current, fit, physics)
         out.append(
             Candidate(
                 physics,
