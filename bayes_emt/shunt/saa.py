@@ -376,23 +376,25 @@ def choose_robust(pool: DrawPool, starts: Sequence[tuple[float, float]], *, risk
             cur, x, ev = (val, float(x_new[0]), math.exp(x_new[1]), ev_new), x_new, ev_new
         if np.all(np.isin(tail, active)) or not improved:
             break
+    val, rs, cs = cur[:3]
     last = info["rounds"][-1]["message"] if info["rounds"] else ""
     if last != "converged" and time.perf_counter() < deadline:
-        cur = _finish(pool, cur, risk, alpha, allowed, cs_max, info)
-    return RobustChoice(cur[1], cur[2], cur[0], info)
+        val, rs, cs = _finish(pool, (val, rs, cs), risk, alpha, allowed, cs_max, info)
+    return RobustChoice(rs, cs, val, info)
 
 
 #: evaluations of the derivative-free finish (:func:`_finish`), about 2 CPU s on 500 design draws
 FINISH_EVALS = 40
 
 
-def _finish(pool, cur, risk, alpha, allowed, cs_max, info) -> tuple:
+def _finish(pool, cur, risk, alpha, allowed, cs_max, info) -> tuple[float, float, float]:
     """A derivative-free finish on the exact SAA objective from the SQP's result ``cur`` ``(risk, Rs,
-    Cs, eval)``: Nelder–Mead in ``(Rs, ln Cs)``, :data:`FINISH_EVALS` evaluations, simplex steps
-    2 % of Rs and 0.1 in ln Cs; kept only when lower. The SQP stops on "no decrease" where the
-    peaks' kinks make its quadratic model a poor guide, and where it stops then depends on its start:
-    on a posterior of LS10-44 (NL(4) + creep + winding capacitance) starts 1e-9 apart ended 0.85 dB
-    apart in CVaR (-11.79 to -12.64 dB); with this finish, within 0.03 dB (-12.62 to -12.64)."""
+    Cs)``, returning the same triple: Nelder–Mead in ``(Rs, ln Cs)``, :data:`FINISH_EVALS`
+    evaluations, simplex steps 2 % of Rs and 0.1 in ln Cs; kept only when lower. The SQP stops on
+    "no decrease" where the peaks' kinks make its quadratic model a poor guide, and where it stops
+    then depends on its start: on a posterior of LS10-44 (NL(4) + creep + winding capacitance)
+    starts 1e-9 apart ended 0.85 dB apart in CVaR (-11.79 to -12.64 dB); with this finish, within
+    0.03 dB (-12.62 to -12.64)."""
     lcs_max = math.inf if cs_max is None else math.log(cs_max)
 
     def f(x):
@@ -411,5 +413,4 @@ def _finish(pool, cur, risk, alpha, allowed, cs_max, info) -> tuple:
                       "Rs": float(res.x[0]), "Cs": math.exp(float(res.x[1])), "kept": better}
     if not better:
         return cur
-    rs, cs = float(res.x[0]), math.exp(float(res.x[1]))
-    return (float(res.fun), rs, cs, pool.evaluate(rs, cs))
+    return float(res.fun), float(res.x[0]), math.exp(float(res.x[1]))
