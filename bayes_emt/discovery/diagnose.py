@@ -533,15 +533,18 @@ def _unexplained(meas, fit, bands) -> list[dict]:
     return out
 
 
-def _compare_starts(meas, d: Diagnosis, rivals, cache, alpha, seed, say) -> Diagnosis:
+def _compare_starts(meas, d: Diagnosis, rivals, cache, alpha, seed, say, pool=None, clock=None,
+                    deadline=None, time_budget=None) -> Diagnosis:
     """The final comparison (:func:`.reconcile.final_comparison`) over the final models the searches
     from every start reached (``d``'s and ``rivals``'): the diagnosis whose final terms the winner
     holds is returned, its final fit replaced by the winner when that is another coil family or has
     fewer terms (its findings then those the winner holds, its unexplained bands located afresh), a
-    line in its warnings saying what each start reached and what was kept."""
+    line in its warnings saying what each start reached and what was kept. Its candidates are fitted
+    on ``pool``; those not done by ``deadline`` (on ``clock``) are left out, and a warning names them."""
     diags = [d, *rivals]
     evidence = lambda f: cache.evidence_of(meas, f).log_z  # noqa: E731
-    cmp = final_comparison(meas, [x.final_fit for x in diags], evidence, cache=cache, say=say)
+    cmp = final_comparison(meas, [x.final_fit for x in diags], evidence, cache=cache, say=say, pool=pool,
+                           clock=clock, deadline=deadline)
     origin = diags[cmp["origin"]]
     win = cmp["fit"]
     reached = "; ".join(f"from {x.baseline_model}: {x.final_model}" for x in diags)
@@ -553,6 +556,9 @@ def _compare_starts(meas, d: Diagnosis, rivals, cache, alpha, seed, say) -> Diag
         warn.append(cmp["line"])
     for x in rivals:
         warn.extend(f"the search from {x.baseline_model}: {w}" for w in x.warnings if "time budget" in w)
+    if cmp["cut"]:
+        warn.append(f"time budget of {time_budget:g} s reached during the final comparison: "
+                    f"{', '.join(cmp['cut'])} not compared: the answer may depend on the start")
     out = dataclasses.replace(origin, warnings=tuple(warn))
     if win is not origin.final_fit:
         loc = locate_mismatch(meas, win.model, win.theta, alpha=alpha, seed=seed + len(origin.locations))
@@ -866,7 +872,7 @@ def diagnose(
             if r is not None:
                 rivals.append(r)
         if deadline is None or clock() <= deadline:
-            d = _compare_starts(meas, d, rivals, cache, alpha, seed, say)
+            d = _compare_starts(meas, d, rivals, cache, alpha, seed, say, pool, clock, deadline, time_budget)
         elif not left:
             d = dataclasses.replace(d, warnings=(*d.warnings, (
                 f"time budget of {time_budget:g} s reached: the final models of the starts not compared: "

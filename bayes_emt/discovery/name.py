@@ -424,12 +424,16 @@ class FitCache:
         self.fits: dict = {}
         self.evidence: dict = {}
 
+    def holds(self, fit: FitResult) -> bool:
+        """Whether the evidence of this very fit (model and values) is held."""
+        hit = self.evidence.get(fit.model.label)
+        return hit is not None and hit[0].model.names == fit.model.names and \
+            np.array_equal(hit[0].theta, fit.theta)
+
     def evidence_of(self, meas: Measurement, fit: FitResult) -> Evidence:
         """:func:`fit_log_evidence` of ``fit``, computed once per fit."""
-        hit = self.evidence.get(fit.model.label)
-        if hit is not None and hit[0].model.names == fit.model.names and \
-                np.array_equal(hit[0].theta, fit.theta):
-            return hit[1]
+        if self.holds(fit):
+            return self.evidence[fit.model.label][1]
         ev = fit_log_evidence(meas, fit)
         self.evidence[fit.model.label] = (fit, ev)
         return ev

@@ -28,12 +28,16 @@ one the user gets is an accident of the path. Two steps make the answer a compar
 from __future__ import annotations
 
 import math
+import time
+import warnings
 
 from ..errors import FitError
 from ..estimation.fitting import fit_admittance, fit_reusing
 from ..estimation.results import FitResult
+from ..evidence.fit_evidence import fit_log_evidence
 from ..measurement import Measurement
 from ..models import EDDY_PHYSICS, Model, parse_model_spec
+from .name import portable
 from .sanity import defects
 
 __all__ = ["FAMILIES", "TIE_NATS", "healthy_start", "final_comparison", "start_ladder", "kept_findings"]
@@ -127,17 +131,103 @@ def _without(meas: Measurement, fit: FitResult, term) -> FitResult | None:
         return None
 
 
+def _make(meas: Measurement, job: tuple, reuse) -> FitResult | None:
+    """The fit a final-comparison job names: ``("given", fit)``, ``("polish", label, final)`` (the
+    final's terms on another coil family, :func:`_polish`), ``("fit", label)`` (a bare coil family from
+    the automatic start) or ``("without", fit, term id)`` (a found term dropped)."""
+    kind = job[0]
+    if kind == "given":
+        return job[1]
+    if kind == "polish":
+        return _polish(meas, parse_model_spec(job[1]), job[2], reuse)
+    if kind == "fit":
+        return _safe_fit(meas, parse_model_spec(job[1]), reuse)
+    fit, term = job[1], job[2]
+    return _without(meas, fit, next(t for t in fit.model.augmentations if t.id == term))
+
+
+def _job_label(job: tuple) -> str:
+    if job[0] == "given":
+        return job[1].model.label
+    if job[0] == "without":
+        return job[1].model.without(next(t for t in job[1].model.augmentations if t.id == job[2])).label
+    return job[1]
+
+
+def _compare_task(meas_parts, job, reuse):
+    """One final-comparison job in a worker process: ``(fit, Evidence, CPU seconds, new fits)``."""
+    t = time.process_time()
+    meas = Measurement(*meas_parts)
+    known = set(reuse or ())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = _make(meas, job, reuse)
+        ev = None if fit is None else fit_log_evidence(meas, fit)
+    new = None if reuse is None else {k: v for k, v in reuse.items() if k not in known}
+    return fit, ev, time.process_time() - t, new
+
+
+def _run_jobs(meas, jobs, cache, pool, clock, deadline):
+    """The fits of the first jobs of ``jobs`` done by ``deadline`` (on ``clock``; all of them without
+    one), in their order, ``None`` for one that failed. With ``pool`` (and ``cache``) they run in
+    parallel, each with its evidence (put in ``cache``), and those still running at the deadline are
+    abandoned; without one the job in progress at the deadline finishes."""
+    reuse = None if cache is None else cache.fits
+    out = []
+    if pool is None or cache is None:
+        for job in jobs:
+            if deadline is not None and clock() > deadline:
+                break
+            out.append(_make(meas, job, reuse))
+        return out
+    parts = portable(meas)
+    futures = [None if job[0] == "given" and cache.holds(job[1]) else
+               pool.submit(_compare_task, parts, job, reuse) for job in jobs]
+    for job, fut in zip(jobs, futures, strict=True):
+        if deadline is not None and clock() > deadline:
+            break
+        if fut is None:
+            out.append(job[1])
+            continue
+        try:  # with a wall clock, a job still running at the deadline is not waited for
+            fit, ev, cpu, new = fut.result(None if deadline is None or not getattr(clock, "wall", False)
+                                           else max(0.0, deadline - clock()))
+        except TimeoutError:
+            getattr(pool, "stop_workers", lambda: None)()
+            break
+        if hasattr(clock, "workers"):
+            clock.workers += cpu
+        for k, v in (new or {}).items():
+            reuse.setdefault(k, v)
+        if fit is not None:
+            cache.evidence[fit.model.label] = (fit, ev)
+        out.append(fit)
+    else:
+        return out
+    for fut in futures[len(out):]:
+        if fut is not None:
+            fut.cancel()
+    return out
+
+
 def final_comparison(meas: Measurement, finals, evidence, *, cache=None, families=FAMILIES,
-                     say=lambda msg: None) -> dict:
+                     say=lambda msg: None, pool=None, clock=None, deadline: float | None = None) -> dict:
     """The final comparison of the module docstring over the final fits ``finals`` the searches reached
     (the given start's first). ``evidence(fit) -> log Z`` [nats] (the search's own, recomputed for the
     finals too: a search's log Z may be a stand-in, the maximum likelihood when its Laplace evidence
     failed, which no evidence can be compared with). Returns ``{"fit", "log_z", "origin": index of
     the final whose terms the kept fit holds, "compared": [{"model", "log_z", "defects"}], "tie":
     [labels within TIE_NATS of the kept one], "line": one line when the answer is not the first
-    final or a tie remains, else ""}``; the first final is kept when no candidate is healthy."""
-    reuse = None if cache is None else cache.fits
+    final or a tie remains, else "", "cut": [models not compared]}``; the first final is kept when no
+    candidate is healthy.
+
+    ``pool`` (with ``cache``, a :class:`.name.FitCache` that ``evidence`` reads): the candidates of
+    each step fitted, with their evidence, in parallel (the same decisions: they are added in the
+    same order); ``deadline`` on ``clock``: the candidates not done by then are left out and named in
+    ``"cut"`` (the pool's running ones abandoned)."""
+    clock = clock or time.monotonic
     seen: dict[str, tuple] = {}
+    cut: list[str] = []
 
     def add(fit, origin):
         if fit is None:
@@ -155,8 +245,18 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
         seen[fit.model.label] = (fit, lz, bad, origin)
         say(f"final comparison: {fit.model.label} log Z {lz:.1f}" + (f" ({'; '.join(bad)})" if bad else ""))
 
+    def run(jobs):
+        """``add`` each job's fit in order; whether every job was done."""
+        fits = _run_jobs(meas, [j for j, _ in jobs], cache, pool, clock, deadline)
+        for fit, (_, origin) in zip(fits, jobs, strict=False):
+            add(fit, origin)
+        cut.extend(_job_label(j) for j, _ in jobs[len(fits):])
+        return len(fits) == len(jobs)
+
+    jobs, planned = [], set()
     for i, final in enumerate(finals):
-        add(final, i)
+        jobs.append((("given", final), i))
+        planned.add(final.model.label)
     for i, final in enumerate(finals):
         extra = _extra(final.model)
         for fam in families:
@@ -164,43 +264,41 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
                 m = parse_model_spec(fam + extra)
             except ValueError:
                 continue
-            if m.label == final.model.label or (not extra and m.label in seen):
+            if m.label == final.model.label or (not extra and m.label in planned):
                 continue  # the final itself; a bare coil family is the same fit from any final
-            add(_polish(meas, m, final, reuse) if extra else _safe_fit(meas, m, reuse), i)
+            planned.add(m.label)
+            jobs.append(((("polish", m.label, final) if extra else ("fit", m.label)), i))
+    done = run(jobs)
 
     def healthy():
         return [(f, lz, o) for f, lz, bad, o in seen.values() if not bad and math.isfinite(lz)]
 
     # backward elimination from the leader: drop a found term while the evidence does not fall
-    while True:
+    while done:
         ok = healthy()
         if not ok:
             break
         lead, lead_lz, lead_o = max(ok, key=lambda x: x[1])
-        better = False
-        for t in lead.model.augmentations:
-            m = lead.model.without(t)
-            if m.label in seen:
-                continue
-            add(_without(meas, lead, t), lead_o)
-            if m.label in seen and seen[m.label][1] >= lead_lz and not seen[m.label][2]:
-                better = True
-        if not better:
+        drop = [t for t in lead.model.augmentations if lead.model.without(t).label not in seen]
+        done = run([(("without", lead, t.id), lead_o) for t in drop])
+        if not any(m.label in seen and seen[m.label][1] >= lead_lz and not seen[m.label][2]
+                   for m in (lead.model.without(t) for t in drop)):
             break
     compared = [{"model": k, "log_z": v[1], "defects": v[2]} for k, v in seen.items()]
     first = finals[0]
     ok = healthy()
     if not ok:
-        return {"fit": first, "log_z": seen[first.model.label][1], "origin": 0, "compared": compared,
-                "tie": [], "line": ""}
+        return {"fit": first, "log_z": seen.get(first.model.label, (None, math.nan))[1], "origin": 0,
+                "compared": compared, "tie": [], "line": "", "cut": cut}
     best_lz = max(lz for _, lz, _ in ok)
     near = [x for x in ok if best_lz - x[1] <= TIE_NATS]
     keep, keep_lz, origin = min(near, key=lambda x: (x[0].model.ndim, -x[1]))
     tie = [f.model.label for f, _, _ in near if f is not keep]
     line = ""
     if keep.model.label != first.model.label:
-        _, first_lz, first_bad, _ = seen[first.model.label]
-        why = f"log Z {first_lz:.1f}" if math.isfinite(first_lz) else "its evidence could not be computed"
+        _, first_lz, first_bad, _ = seen.get(first.model.label, (None, None, [], None))
+        why = ("its evidence not computed within the time budget" if first_lz is None else
+               f"log Z {first_lz:.1f}" if math.isfinite(first_lz) else "its evidence could not be computed")
         if first_bad:
             why += "; " + "; ".join(first_bad)
         line = (f"final comparison: {keep.model.label} (log Z {keep_lz:.1f}) is kept over "
@@ -211,7 +309,8 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
             "the data cannot tell " + ", ".join(
                 f"{lab} (log Z {seen[lab][1]:.1f})" for lab in [keep.model.label, *tie])
             + f" apart (within {TIE_NATS:g} nats): the simplest, {keep.model.label}, is kept")
-    return {"fit": keep, "log_z": keep_lz, "origin": origin, "compared": compared, "tie": tie, "line": line}
+    return {"fit": keep, "log_z": keep_lz, "origin": origin, "compared": compared, "tie": tie, "line": line,
+            "cut": cut}
 
 
 #: two routes' log Z closer than this [nats] are the same evidence (the lower chi2 then decides)
