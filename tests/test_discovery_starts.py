@@ -125,3 +125,58 @@ def test_diagnose_from_ud_iii_and_nl5_reaches_the_same_final_model():
     assert labels == {"UD+winding_capacitance"}, {s: d.final_model for s, d in finals.items()}
     for d in finals.values():
         assert any("the searches from" in w for w in d.warnings)
+
+
+def test_the_final_comparison_computes_no_evidence_for_a_broken_candidate():
+    """A candidate with a defect is never kept, so its evidence (often the costliest: it fails at the
+    prior's edge and falls back) is not computed; a final's always is, and the answer is the healthy
+    best as before."""
+    from bayes_emt.discovery.sanity import defects
+
+    meas = _data()
+    a = fit_admittance(meas, parse_model_spec("UD+winding_capacitance"))
+    asked = []
+
+    def ev(f):
+        asked.append(f)
+        return fit_log_evidence(meas, f).log_z
+
+    out = final_comparison(meas, [a], ev, families=("UD", "III", "NL(2)"))
+    broken = [c for c in out["compared"] if c["defects"]]
+    assert broken, "the case needs a broken candidate (III+winding_capacitance: Cp at its prior's edge)"
+    assert all(math.isnan(c["log_z"]) for c in broken)
+    assert all(not defects(f, f.model.names) or f is a for f in asked)
+    assert out["fit"].model.label == "UD+winding_capacitance" and out["cut"] == []
+
+
+def test_the_final_comparison_on_a_pool_keeps_what_it_keeps_without_one_and_stops_at_the_deadline():
+    """The candidates of each step run in parallel and are added in the same order: the same kept
+    model, log Z and compared set as in one process; a deadline already passed compares nothing,
+    keeps the first final and names every candidate it left out."""
+    from bayes_emt._procs import ProcessPool, WallClock
+    from bayes_emt.discovery.name import FitCache
+
+    meas = _data()
+    a = fit_admittance(meas, parse_model_spec("UD+winding_capacitance"))
+    b = fit_admittance(meas, parse_model_spec("III"))
+    fams = ("UD", "III", "NL(2)")
+    one_cache = FitCache()
+    one = final_comparison(meas, [a, b], lambda f: one_cache.evidence_of(meas, f).log_z, cache=one_cache,
+                           families=fams)
+    cache = FitCache()
+    with ProcessPool(2) as pool:
+        par = final_comparison(meas, [a, b], lambda f: cache.evidence_of(meas, f).log_z, cache=cache,
+                               families=fams, pool=pool)
+    assert par["fit"].model.label == one["fit"].model.label and par["cut"] == []
+    assert par["log_z"] == pytest.approx(one["log_z"], abs=1e-6)
+    lz = lambda out: {c["model"]: c["log_z"] for c in out["compared"]}  # noqa: E731
+    assert lz(par).keys() == lz(one).keys()
+    np.testing.assert_allclose([lz(par)[k] for k in lz(one)], list(lz(one).values()), atol=1e-6)
+
+    clock = WallClock()
+    cache = FitCache()
+    with ProcessPool(2) as pool:
+        late = final_comparison(meas, [a, b], lambda f: cache.evidence_of(meas, f).log_z, cache=cache,
+                                families=fams, pool=pool, clock=clock, deadline=clock() - 1.0)
+    assert late["fit"] is a and late["compared"] == []
+    assert late["cut"][:2] == ["UD+winding_capacitance", "III"] and "NL(2)+winding_capacitance" in late["cut"]

@@ -162,7 +162,9 @@ def _compare_task(meas_parts, job, reuse):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         fit = _make(meas, job, reuse)
-        ev = None if fit is None else fit_log_evidence(meas, fit)
+        # a candidate with a defect is never kept: its evidence is not needed (a final's always is)
+        ev = None if fit is None or (job[0] != "given" and defects(fit, fit.model.names)) else \
+            fit_log_evidence(meas, fit)
     new = None if reuse is None else {k: v for k, v in reuse.items() if k not in known}
     return fit, ev, time.process_time() - t, new
 
@@ -199,7 +201,7 @@ def _run_jobs(meas, jobs, cache, pool, clock, deadline):
             clock.workers += cpu
         for k, v in (new or {}).items():
             reuse.setdefault(k, v)
-        if fit is not None:
+        if ev is not None:
             cache.evidence[fit.model.label] = (fit, ev)
         out.append(fit)
     else:
@@ -229,13 +231,16 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
     seen: dict[str, tuple] = {}
     cut: list[str] = []
 
-    def add(fit, origin):
+    def add(fit, origin, given=False):
         if fit is None:
             return
-        lz = evidence(fit)
         # every parameter, the coil family's own too (an NL ring pressed to zero, Pg = 1e-16 on
-        # grs_12SW-4HE, is a broken fit as much as a term's)
+        # grs_12SW-4HE, is a broken fit as much as a term's); a candidate with a defect is never kept,
+        # so its evidence, often the costliest (it fails at the prior's edge and falls back), is not
+        # computed: the decisions are the same (a healthy route of a model beats a broken one whatever
+        # their log Z); a final's evidence always is (the line names the first final's)
         bad = defects(fit, fit.model.names)
+        lz = evidence(fit) if given or not bad else math.nan
         had = seen.get(fit.model.label)
         # a model reached by two routes (two finals with the same terms, polished from each): the
         # route the comparison itself prefers stands for it (healthy, then the larger log Z, then the
@@ -243,13 +248,15 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
         if had is not None and not _better((fit, lz, bad), had[:3]):
             return
         seen[fit.model.label] = (fit, lz, bad, origin)
-        say(f"final comparison: {fit.model.label} log Z {lz:.1f}" + (f" ({'; '.join(bad)})" if bad else ""))
+        say(f"final comparison: {fit.model.label} " + (f"log Z {lz:.1f}" if given or not bad else
+                                                         "evidence not computed")
+            + (f" ({'; '.join(bad)})" if bad else ""))
 
     def run(jobs):
         """``add`` each job's fit in order; whether every job was done."""
         fits = _run_jobs(meas, [j for j, _ in jobs], cache, pool, clock, deadline)
-        for fit, (_, origin) in zip(fits, jobs, strict=False):
-            add(fit, origin)
+        for fit, (job, origin) in zip(fits, jobs, strict=False):
+            add(fit, origin, job[0] == "given")
         cut.extend(_job_label(j) for j, _ in jobs[len(fits):])
         return len(fits) == len(jobs)
 
