@@ -17,7 +17,8 @@ one the user gets is an accident of the path. Two steps make the answer a compar
   polished from the final fit's values with ``B'``'s own coil values); then each found term is
   dropped in turn from the leader while the evidence does not fall (backward elimination: a term
   that earned its place on one coil model may be absorbed on another). Among the healthy candidates
-  (no defect, every parameter checked for its prior's edge) the best log Z wins;
+  (no defect, every parameter checked for its prior's edge; a candidate with a defect is never kept,
+  so its evidence is not computed) the best log Z wins;
   candidates within :data:`TIE_NATS` of it are a tie the data
   cannot resolve (Kass & Raftery 1995: a Bayes factor below e² ≈ 7 is "positive" at most), and the
   simplest of them (fewest parameters, then best log Z) is kept, the others named with their
