@@ -171,46 +171,43 @@ def _compare_task(meas_parts, job, reuse):
 
 
 def _run_jobs(meas, jobs, cache, pool, clock, deadline):
-    """The fits of the first jobs of ``jobs`` done by ``deadline`` (on ``clock``; all of them without
-    one), in their order, ``None`` for one that failed. With ``pool`` (and ``cache``) they run in
-    parallel, each with its evidence (put in ``cache``), and those still running at the deadline are
-    abandoned; without one the job in progress at the deadline finishes."""
+    """``(fit, Evidence or None)`` of each job of ``jobs`` in their order (``fit`` ``None`` for one
+    that failed), lazily, until ``deadline`` (on ``clock``) passes: the jobs left are not run. With
+    ``pool`` (and ``cache``) they run in parallel, each with its evidence (``None`` for a candidate
+    with a defect), those still running at the deadline abandoned; without one, a job is started
+    only before the deadline (its evidence is the caller's to compute)."""
     reuse = None if cache is None else cache.fits
-    out = []
     if pool is None or cache is None:
         for job in jobs:
             if deadline is not None and clock() > deadline:
-                break
-            out.append(_make(meas, job, reuse))
-        return out
+                return
+            yield _make(meas, job, reuse), None
+        return
     parts = portable(meas)
     futures = [None if job[0] == "given" and cache.holds(job[1]) else
                pool.submit(_compare_task, parts, job, reuse) for job in jobs]
-    for job, fut in zip(jobs, futures, strict=True):
-        if deadline is not None and clock() > deadline:
-            break
-        if fut is None:
-            out.append(job[1])
-            continue
-        try:  # with a wall clock, a job still running at the deadline is not waited for
-            fit, ev, cpu, new = fut.result(None if deadline is None or not getattr(clock, "wall", False)
-                                           else max(0.0, deadline - clock()))
-        except TimeoutError:
-            getattr(pool, "stop_workers", lambda: None)()
-            break
-        if hasattr(clock, "workers"):
-            clock.workers += cpu
-        for k, v in (new or {}).items():
-            reuse.setdefault(k, v)
-        if ev is not None:
-            cache.evidence[fit.model.label] = (fit, ev)
-        out.append(fit)
-    else:
-        return out
-    for fut in futures[len(out):]:
-        if fut is not None:
-            fut.cancel()
-    return out
+    try:
+        for job, fut in zip(jobs, futures, strict=True):
+            if deadline is not None and clock() > deadline:
+                return
+            if fut is None:
+                yield job[1], None
+                continue
+            try:  # with a wall clock, a job still running at the deadline is not waited for
+                fit, ev, cpu, new = fut.result(None if deadline is None or not getattr(clock, "wall", False)
+                                               else max(0.0, deadline - clock()))
+            except TimeoutError:
+                getattr(pool, "stop_workers", lambda: None)()
+                return
+            if hasattr(clock, "workers"):
+                clock.workers += cpu
+            for k, v in (new or {}).items():
+                reuse.setdefault(k, v)
+            yield fit, ev
+    finally:
+        for fut in futures:
+            if fut is not None:
+                fut.cancel()
 
 
 def final_comparison(meas: Measurement, finals, evidence, *, cache=None, families=FAMILIES,
@@ -254,12 +251,16 @@ def final_comparison(meas: Measurement, finals, evidence, *, cache=None, familie
             + (f" ({'; '.join(bad)})" if bad else ""))
 
     def run(jobs):
-        """``add`` each job's fit in order; whether every job was done."""
-        fits = _run_jobs(meas, [j for j, _ in jobs], cache, pool, clock, deadline)
-        for fit, (job, origin) in zip(fits, jobs, strict=False):
+        """``add`` each job's fit in order, as it comes; whether every job was done."""
+        n = 0
+        results = _run_jobs(meas, [j for j, _ in jobs], cache, pool, clock, deadline)
+        for (fit, ev), (job, origin) in zip(results, jobs, strict=False):
+            if ev is not None:  # computed by a worker: what ``evidence`` reads
+                cache.evidence[fit.model.label] = (fit, ev)
             add(fit, origin, job[0] == "given")
-        cut.extend(_job_label(j) for j, _ in jobs[len(fits):])
-        return len(fits) == len(jobs)
+            n += 1
+        cut.extend(_job_label(j) for j, _ in jobs[n:])
+        return n == len(jobs)
 
     jobs, planned = [], set()
     for i, final in enumerate(finals):
