@@ -8,8 +8,8 @@ relative complex Gaussian noise of 0.2 % per real/imaginary part, seed 20261122.
 """
 
 from bayes_emt import build_model, simulate
-from bayes_emt.io.datasets import PAPER_BENCH_NOISE, PAPER_BENCH_SEED, paper_bench_path
 from bayes_emt.io import write_measurement
+from bayes_emt.io.datasets import PAPER_BENCH_NOISE, PAPER_BENCH_SEED, paper_bench_path
 from bayes_emt.reference import PAPER_TABLES
 
 
