@@ -42,6 +42,7 @@ from .locate import ALPHA, Band, Location, locate_mismatch
 from .name import (
     Candidate,
     FitCache,
+    await_task,
     base_task,
     log_evidence,
     max_log_likelihood,
@@ -418,12 +419,11 @@ def preferred_base_model(meas: Measurement, names=BASELINE_CANDIDATES, *, cache:
         parts = portable(meas)
         futures = [pool.submit(base_task, parts, name) for name in names]
         for fut in futures:
-            try:
-                fit, ev, cpu = fut.result(None if deadline is None else max(0.0, deadline - clock()))
-            except TimeoutError:  # the time budget ran out: the fits still running are abandoned
-                getattr(pool, "stop_workers", lambda: None)()
+            got = await_task(fut, pool, clock, deadline)
+            if got is None:  # the time budget ran out: the fits still running are abandoned
                 cut = True
                 break
+            fit, ev, cpu = got
             if hasattr(clock, "workers"):
                 clock.workers += cpu
             if fit is not None:

@@ -473,6 +473,19 @@ def portable(meas: Measurement) -> tuple:
     return (np.asarray(meas.omega), np.asarray(meas.Y), meas.weights, dict(meas.meta))
 
 
+def await_task(task, pool, clock, deadline: float | None):
+    """The result of ``task`` (submitted to ``pool``), or ``None`` when ``deadline`` passes first on a
+    wall ``clock`` (:class:`bayes_emt._procs.WallClock`): the pool's workers, still running, are then
+    stopped. Without a deadline, or on a CPU clock (which does not move while this process waits), it
+    waits for the result."""
+    try:
+        return task.result(None if deadline is None or not getattr(clock, "wall", False)
+                           else max(0.0, deadline - clock()))
+    except TimeoutError:
+        getattr(pool, "stop_workers", lambda: None)()
+        return None
+
+
 def base_task(meas_parts, name: str):
     """One base model fitted from the automatic start in a worker process: ``(fit, evidence, CPU
     seconds)``, ``(None, None, s)`` when it cannot be fitted."""
@@ -533,13 +546,11 @@ def fit_jobs(meas: Measurement, jobs, band: Band, *, warm: bool = True, cache: d
                 f.cancel()
             yield physics, base, None, 0.0
             return
-        try:  # with a wall clock, a candidate still running at the deadline is not waited for
-            res, cpu, new = futures[i].result(None if deadline is None or not getattr(clock, "wall", False)
-                                              else max(0.0, deadline - clock()))
-        except TimeoutError:
-            getattr(pool, "stop_workers", lambda: None)()
+        got = await_task(futures[i], pool, clock, deadline)  # a candidate still running is abandoned
+        if got is None:
             yield physics, base, None, 0.0
             return
+        res, cpu, new = got
         if hasattr(clock, "workers"):
             clock.workers += cpu
         if cache is not None and new is not None:

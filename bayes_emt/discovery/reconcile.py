@@ -38,7 +38,7 @@ from ..estimation.results import FitResult
 from ..evidence.fit_evidence import fit_log_evidence
 from ..measurement import Measurement
 from ..models import EDDY_PHYSICS, Model, parse_model_spec
-from .name import portable
+from .name import await_task, portable
 from .sanity import defects
 
 __all__ = ["FAMILIES", "TIE_NATS", "healthy_start", "final_comparison", "start_ladder", "kept_findings"]
@@ -132,6 +132,11 @@ def _without(meas: Measurement, fit: FitResult, term) -> FitResult | None:
         return None
 
 
+def _term(fit: FitResult, term_id: str):
+    """The term of ``fit``'s model with id ``term_id``."""
+    return next(t for t in fit.model.augmentations if t.id == term_id)
+
+
 def _make(meas: Measurement, job: tuple, reuse) -> FitResult | None:
     """The fit a final-comparison job names: ``("given", fit)``, ``("polish", label, final)`` (the
     final's terms on another coil family, :func:`_polish`), ``("fit", label)`` (a bare coil family from
@@ -143,15 +148,14 @@ def _make(meas: Measurement, job: tuple, reuse) -> FitResult | None:
         return _polish(meas, parse_model_spec(job[1]), job[2], reuse)
     if kind == "fit":
         return _safe_fit(meas, parse_model_spec(job[1]), reuse)
-    fit, term = job[1], job[2]
-    return _without(meas, fit, next(t for t in fit.model.augmentations if t.id == term))
+    return _without(meas, job[1], _term(job[1], job[2]))
 
 
 def _job_label(job: tuple) -> str:
     if job[0] == "given":
         return job[1].model.label
     if job[0] == "without":
-        return job[1].model.without(next(t for t in job[1].model.augmentations if t.id == job[2])).label
+        return job[1].model.without(_term(job[1], job[2])).label
     return job[1]
 
 
@@ -193,12 +197,10 @@ def _run_jobs(meas, jobs, cache, pool, clock, deadline):
             if fut is None:
                 yield job[1], None
                 continue
-            try:  # with a wall clock, a job still running at the deadline is not waited for
-                fit, ev, cpu, new = fut.result(None if deadline is None or not getattr(clock, "wall", False)
-                                               else max(0.0, deadline - clock()))
-            except TimeoutError:
-                getattr(pool, "stop_workers", lambda: None)()
+            got = await_task(fut, pool, clock, deadline)  # a job still running is abandoned
+            if got is None:
                 return
+            fit, ev, cpu, new = got
             if hasattr(clock, "workers"):
                 clock.workers += cpu
             for k, v in (new or {}).items():
